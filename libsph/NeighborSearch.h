@@ -1,0 +1,98 @@
+/// @file NeighborSearch.h
+/// @brief Fixed-radius neighbour search: the interface the solver, the
+///        surfacing stage and the benchmarks share, and its implementations.
+///
+/// A query point q has as neighbours every indexed point p with
+/// |q - p|^2 <= r^2 (inclusive: a point exactly on the support radius counts),
+/// the squared distance computed by squaredDistance() below in every
+/// implementation, so that all implementations return bit-identical sets.
+/// With a per-query radius (variable smoothing length, SEED section 2.1) the
+/// relation is the gather form: r = supportRadii[q].
+///
+/// Lists are compressed rows (CSR) and are built once per time step; every
+/// later pass of that step reads them.
+#pragma once
+
+#include "libsph/Types.h"
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace cascade {
+
+/// The one place the neighbour relation's distance is computed.
+inline Real squaredDistance(const Vec3r& a, const Vec3r& b) {
+  const Real dx = a.x() - b.x(), dy = a.y() - b.y(), dz = a.z() - b.z();
+  return dx * dx + dy * dy + dz * dz;
+}
+
+/// Neighbour lists in compressed-row form: the neighbours of query i are
+/// indices[offsets[i] .. offsets[i+1]). Order within a list is unspecified.
+struct NeighborLists {
+  std::vector<std::uint32_t> offsets{0};
+  std::vector<std::uint32_t> indices;
+
+  std::size_t size() const { return offsets.size() - 1; }
+  std::uint32_t count(std::size_t i) const { return offsets[i + 1] - offsets[i]; }
+  const std::uint32_t* begin(std::size_t i) const { return indices.data() + offsets[i]; }
+  const std::uint32_t* end(std::size_t i) const { return indices.data() + offsets[i + 1]; }
+  std::size_t totalCount() const { return indices.size(); }
+  void clear() { offsets.assign(1, 0); indices.clear(); }
+};
+
+/// A neighbour search method. build() indexes a point set; query() finds, for
+/// each query point, the indexed points within its support radius.
+class NeighborSearch {
+public:
+  virtual ~NeighborSearch() = default;
+
+  /// Short method name as used in scenes and benchmarks ("brute", "grid", "octree").
+  virtual std::string name() const = 0;
+
+  /// Indexes `count` points for later queries of radius at most maxSupportRadius.
+  /// The points must stay alive and unchanged until the next build().
+  virtual void build(const Vec3r* points, std::size_t count, Real maxSupportRadius) = 0;
+
+  /// For each of `count` queries, the indexed points within its radius:
+  /// supportRadii[q] if supportRadii is not null, else the build radius.
+  /// With excludeSelf, the queries are the indexed points themselves and
+  /// query i does not list point i.
+  virtual void query(const Vec3r* queries, std::size_t count, const Real* supportRadii,
+                     bool excludeSelf, NeighborLists& out) const = 0;
+
+  /// Convenience: all pairs within one point set (build + self query).
+  void findNeighbors(const Vec3r* points, std::size_t count, Real supportRadius,
+                     NeighborLists& out) {
+    build(points, count, supportRadius);
+    query(points, count, nullptr, true, out);
+  }
+};
+
+/// The reference: tests every pair. O(N^2); for tests and small sets only.
+class BruteForceSearch final : public NeighborSearch {
+public:
+  std::string name() const override { return "brute"; }
+  void build(const Vec3r* points, std::size_t count, Real maxSupportRadius) override;
+  void query(const Vec3r* queries, std::size_t count, const Real* supportRadii,
+             bool excludeSelf, NeighborLists& out) const override;
+
+private:
+  const Vec3r* mPoints = nullptr;
+  std::size_t mCount = 0;
+  Real mRadius = 0;
+};
+
+/// Creates a search by method name; throws std::invalid_argument for an unknown one.
+std::unique_ptr<NeighborSearch> makeNeighborSearch(const std::string& method);
+
+/// The method names makeNeighborSearch() accepts.
+std::vector<std::string> neighborSearchMethods();
+
+/// Concatenates per-query lists (built in parallel) into compressed rows.
+void assembleNeighborLists(const std::vector<std::vector<std::uint32_t>>& perQuery,
+                           NeighborLists& out);
+
+} // namespace cascade

@@ -1,0 +1,18 @@
+/// @file Commands.h
+/// @brief The `cascade` subcommands (CONTRACT.md). Each is registered by its
+///        own file; errors propagate as the exceptions of libsph/Errors.h and
+///        main() turns them into one stderr line and an exit status.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace cascade::cli {
+
+void addBakeCommand(CLI::App& app);
+void addSurfaceCommand(CLI::App& app);
+void addRenderCommand(CLI::App& app);
+void addRunCommand(CLI::App& app);
+void addBenchCommand(CLI::App& app);
+void addInspectCommand(CLI::App& app);
+
+} // namespace cascade::cli

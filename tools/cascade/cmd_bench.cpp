@@ -1,0 +1,33 @@
+#include "Benchmarks.h"
+#include "Commands.h"
+
+#include "libsph/Errors.h"
+
+#include <iostream>
+#include <map>
+#include <memory>
+
+namespace cascade::cli {
+
+void addBenchCommand(CLI::App& app) {
+  struct Options {
+    std::string kind;
+    std::string json;
+  };
+  auto options = std::make_shared<Options>();
+  CLI::App* bench = app.add_subcommand("bench", "Run a benchmark and print its table");
+  bench->add_option("kind", options->kind, "neighbors|step|accuracy|surface|render")
+      ->required()
+      ->check(CLI::IsMember({"neighbors", "step", "accuracy", "surface", "render"}));
+  bench->add_option("--json", options->json, "Also write the table as JSON to FILE");
+  bench->callback([options] {
+    static const std::map<std::string, BenchTable (*)()> kinds = {
+        {"neighbors", benchNeighbors}, {"step", benchStep}, {"accuracy", benchAccuracy},
+        {"surface", benchSurface},     {"render", benchRender}};
+    const BenchTable table = kinds.at(options->kind)();
+    std::cout << table.format() << std::flush;
+    if (!options->json.empty()) table.writeJson(options->json);
+  });
+}
+
+} // namespace cascade::cli
