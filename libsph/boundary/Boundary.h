@@ -1,0 +1,88 @@
+/// @file Boundary.h
+/// @brief A solid the fluid cannot enter, handled by the SEED's two kinds of
+///        virtual boundary particles (SEED section 2.2):
+///        - type I (Monaghan 1994): particles sampled on the surface that
+///          repel fluid closer than r0 with SEED (11);
+///        - type II (Libersky & Petschke 1993): for a fluid particle closer than
+///          kappa h to the surface, mirror images of the fluid near it across
+///          the local tangent plane, with the same density and pressure and the
+///          velocity mirrored (free slip) or reversed (no slip).
+///
+/// A mirror is an affine isometry x' = A x + b (one reflection, or for tank
+/// corners the product of the reflections across two or three orthogonal
+/// walls). All coordinates are world coordinates.
+#pragma once
+
+#include "libsph/Types.h"
+#include "libsph/io/TriangleMesh.h"
+
+#include <Eigen/Core>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace cascade {
+
+/// One mirror map seen by a fluid particle: x' = linear * x + offset.
+struct MirrorMap {
+  Eigen::Matrix<Real, 3, 3> linear = Eigen::Matrix<Real, 3, 3>::Identity();
+  Vec3r offset = Vec3r::Zero();
+  std::uint32_t boundary = 0;   ///< index of the boundary in its Simulation (force attribution)
+
+  Vec3r apply(const Vec3r& x) const { return linear * x + offset; }
+  /// Reflection across the plane through `point` with unit `normal`.
+  static MirrorMap reflection(const Vec3r& point, const Vec3r& normal, std::uint32_t boundary);
+  /// This map applied after `first`.
+  MirrorMap after(const MirrorMap& first) const;
+};
+
+/// An affine placement: world = translation + rotation * (scale * local).
+struct Transform {
+  Vec3r translation = Vec3r::Zero();
+  Eigen::Matrix<Real, 3, 3> rotation = Eigen::Matrix<Real, 3, 3>::Identity();
+  Real scale = Real(1);
+
+  Vec3r apply(const Vec3r& local) const { return translation + rotation * (scale * local); }
+  Vec3r applyInverse(const Vec3r& world) const {
+    return rotation.transpose() * (world - translation) / scale;
+  }
+  /// Rotation from Euler angles in degrees, applied about x, then y, then z.
+  static Eigen::Matrix<Real, 3, 3> rotationFromEulerDegrees(const Vec3r& degrees);
+};
+
+class Boundary {
+public:
+  virtual ~Boundary() = default;
+
+  /// The name the scene gives it ("tank", "slope", "bunny"); probes find it by name.
+  const std::string& name() const { return mName; }
+  void setName(std::string name) { mName = std::move(name); }
+
+  /// Kind of solid: "plane", "box", "tank", "mesh".
+  virtual std::string kind() const = 0;
+
+  /// Type I particles: points on the surface with no gap wider than maxGap.
+  virtual void sampleSurface(Real maxGap, std::vector<Vec3r>& samples) const = 0;
+
+  /// Type II: the mirror maps a fluid particle at x sees (surfaces closer than
+  /// range = kappa h), appended to `maps` tagged with `boundaryIndex`.
+  virtual void mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryIndex,
+                          std::vector<MirrorMap>& maps) const = 0;
+
+  /// True if x lies inside the solid (where no fluid may be).
+  virtual bool isInside(const Vec3r& x) const = 0;
+
+  /// The solid's surface as triangles in world coordinates (one group, named name()).
+  virtual TriangleMesh surfaceMesh() const = 0;
+
+  /// Axis-aligned bounds of the surface.
+  virtual void bounds(Vec3r& lo, Vec3r& hi) const = 0;
+
+private:
+  std::string mName;
+};
+
+using BoundaryPtr = std::unique_ptr<Boundary>;
+
+} // namespace cascade

@@ -1,0 +1,69 @@
+/// @file BoundaryParticles.h
+/// @brief The virtual boundary particles of one time step (SEED section 2.2),
+///        built by the Simulation and read by every pass of the step:
+///        - type I: the static surface samples of every boundary (sampled once
+///          with no gap above sampleGap * r0), with for each fluid particle the
+///          samples within the support radius h (compressed rows);
+///        - type II: for each fluid particle within kappa h of a boundary the
+///          mirror maps it sees (compressed rows); its mirror particles are the
+///          images of itself and of its fluid neighbours under those maps that
+///          fall within h ("rebuilt each step").
+/// Only the boundary layer is touched: `layer` lists the fluid particles that
+/// have any sample or mirror, so the boundary passes skip the bulk.
+#pragma once
+
+#include "libsph/NeighborSearch.h"
+#include "libsph/Particles.h"
+#include "libsph/boundary/Boundary.h"
+
+#include <memory>
+#include <vector>
+
+namespace cascade {
+
+class BoundaryParticles {
+public:
+  BoundaryParticles();
+  ~BoundaryParticles();
+  BoundaryParticles(BoundaryParticles&&) noexcept;
+  BoundaryParticles& operator=(BoundaryParticles&&) noexcept;
+
+  /// Samples the boundaries' surfaces (type I) and indexes the samples.
+  void sample(const std::vector<BoundaryPtr>& boundaries, Real maxGap, Real supportRadius);
+
+  /// Rebuilds the per-particle sample lists (within supportRadius) and the
+  /// mirror maps (boundaries within mirrorRange = kappa h) for this step.
+  void update(const Particles& particles, const std::vector<BoundaryPtr>& boundaries,
+              Real supportRadius, Real mirrorRange, bool withSamples, bool withMirrors);
+
+  // --- type I ---
+  const std::vector<Vec3r>& samplePositions() const { return mSamples; }
+  const std::vector<std::uint32_t>& sampleOwners() const { return mOwners; }  ///< boundary index per sample
+  /// For fluid particle i: samples within h (indices into samplePositions()).
+  const NeighborLists& sampleNeighbors() const { return mSampleNeighbors; }
+
+  // --- type II ---
+  /// Mirror maps of fluid particle i: mirrors()[mirrorOffsets()[i] .. mirrorOffsets()[i+1]).
+  const std::vector<std::uint32_t>& mirrorOffsets() const { return mMirrorOffsets; }
+  const std::vector<MirrorMap>& mirrors() const { return mMirrors; }
+  std::uint32_t mirrorCount(std::size_t i) const { return mMirrorOffsets[i + 1] - mMirrorOffsets[i]; }
+
+  /// Fluid particles with any sample or mirror this step, ascending.
+  const std::vector<std::uint32_t>& layer() const { return mLayer; }
+
+  std::size_t sampleCount() const { return mSamples.size(); }
+  /// Type I samples per boundary.
+  std::vector<std::size_t> samplesPerBoundary(std::size_t boundaryCount) const;
+
+private:
+  std::vector<Vec3r> mSamples;
+  std::vector<std::uint32_t> mOwners;
+  NeighborLists mSampleNeighbors;
+  std::vector<std::uint32_t> mMirrorOffsets{0};
+  std::vector<MirrorMap> mMirrors;
+  std::vector<std::uint32_t> mLayer;
+  struct Grid;
+  std::unique_ptr<Grid> mGrid;
+};
+
+} // namespace cascade

@@ -1,0 +1,48 @@
+/// @file BoxBoundary.h
+/// @brief Box-shaped solids: a tank (fluid inside, walls on its faces, the top
+///        open or closed) or a solid block (fluid outside; an inclined slope
+///        or a tower), axis aligned or oriented. SEED section 2.2: type I
+///        particles on the faces, type II mirrors across the faces near a
+///        fluid particle; in a tank's edges and corners also the products of
+///        the two or three orthogonal reflections, so the mirrored fluid
+///        fills every missing octant.
+#pragma once
+
+#include "libsph/boundary/Boundary.h"
+
+namespace cascade {
+
+class BoxBoundary final : public Boundary {
+public:
+  /// A tank: fluid inside the axis-aligned box [lo, hi]; the top face
+  /// (z = hi.z) is a wall only if closedTop.
+  static BoundaryPtr tank(const Vec3r& lo, const Vec3r& hi, bool closedTop = false);
+
+  /// A solid block: fluid outside; centred at `center`, `halfExtents` along
+  /// the columns of `rotation` (an orthonormal matrix).
+  static BoundaryPtr solid(const Vec3r& center, const Vec3r& halfExtents,
+                           const Eigen::Matrix<Real, 3, 3>& rotation =
+                               Eigen::Matrix<Real, 3, 3>::Identity());
+
+  std::string kind() const override { return mTank ? "tank" : "box"; }
+  void sampleSurface(Real maxGap, std::vector<Vec3r>& samples) const override;
+  void mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryIndex,
+                  std::vector<MirrorMap>& maps) const override;
+  /// Tank: outside the box (through a wall); solid: inside the box.
+  bool isInside(const Vec3r& x) const override;
+  TriangleMesh surfaceMesh() const override;
+  void bounds(Vec3r& lo, Vec3r& hi) const override;
+
+  bool isTank() const { return mTank; }
+  const Vec3r& center() const { return mCenter; }
+  const Vec3r& halfExtents() const { return mHalf; }
+
+private:
+  BoxBoundary() = default;
+  bool faceIsWall(int axis, int side) const { return !(mTank && !mClosedTop && axis == 2 && side == 1); }
+  Vec3r mCenter = Vec3r::Zero(), mHalf = Vec3r::Ones();
+  Eigen::Matrix<Real, 3, 3> mRotation = Eigen::Matrix<Real, 3, 3>::Identity();
+  bool mTank = false, mClosedTop = false;
+};
+
+} // namespace cascade

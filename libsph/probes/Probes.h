@@ -1,0 +1,50 @@
+/// @file Probes.h
+/// @brief The probes of CONTRACT.md as free functions over a particle list
+///        (concept: size() and getPos(i, pos); Particles and ParticleFrame
+///        model it): water height at (x, y), pressure at a boundary point,
+///        force on an obstacle, surge front along a direction.
+///
+/// "Isolated droplets" are particles with fewer than `minNeighbors` other
+/// particles within 2 spacings; the height and front probes ignore them.
+/// The fluid surface is taken half a spacing beyond the outermost particle
+/// centre (a particle stands for a cube of one spacing).
+#pragma once
+
+#include "libsph/Particles.h"
+#include "libsph/Types.h"
+
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace cascade {
+
+class Simulation;
+
+/// For each particle, whether it belongs to the bulk: at least minNeighbors
+/// others within `radius`. Uses a cell grid; O(N).
+std::vector<char> bulkParticles(const std::vector<Vec3r>& positions, Real radius, int minNeighbors);
+
+/// Surge front: max over bulk particles of dot(position, direction) + spacing/2
+/// (direction normalised). NaN if there is no bulk particle.
+double surgeFront(const std::vector<Vec3r>& positions, const Vec3r& direction, Real spacing,
+                  int minNeighbors = 3);
+
+/// Water height at (x, y): the highest bulk particle within a horizontal
+/// distance of one spacing, plus spacing/2 (z of the free surface, m).
+/// NaN if no water is above or below the point.
+double waterHeight(const std::vector<Vec3r>& positions, double x, double y, Real spacing,
+                   int minNeighbors = 3);
+
+/// Pressure at a point on a boundary: the Shepard-normalised SPH average of
+/// the particles within supportRadius (poly6 weights, SEED (4)/(7)) of
+/// p_j + rho_j g . (x_j - point), i.e. each pressure extrapolated
+/// hydrostatically to the point (Adami et al. 2012). 0 if no particle is near.
+double pressureAt(const Particles& particles, const Vec3r& point, Real supportRadius,
+                  const Vec3r& gravity);
+
+/// Force the fluid exerts on the named boundary in the simulation's last step, N.
+/// Throws std::invalid_argument for an unknown name.
+Vec3d obstacleForce(const Simulation& simulation, const std::string& obstacle);
+
+} // namespace cascade

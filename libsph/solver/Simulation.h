@@ -1,0 +1,135 @@
+/// @file Simulation.h
+/// @brief One SPH simulation: the fluid particles, the boundaries, the
+///        neighbour search and the time-step strategy; adaptive CFL time steps,
+///        advancing to a given time, emitting and removing particles, the
+///        instability check, and exact binary checkpoints.
+///
+/// Each step: (every reorderInterval steps, Morton reorder for locality) ->
+/// neighbour lists once (reused by every pass) -> boundary particles of the
+/// step -> the strategy's passes -> domain removal and instability check.
+/// dt = clamp(min(cflFactor h / (c + v_max), 0.125 h^2 / nu, 0.25 sqrt(h / a_max)),
+/// minTimeStep, maxTimeStep) (Monaghan 1992; Becker & Teschner 2007).
+///
+/// Determinism: a run restored from save() and continued gives bit-identical
+/// particles to one never stopped (all reductions that feed the state are
+/// order independent or done in a fixed order).
+#pragma once
+
+#include "libsph/NeighborSearch.h"
+#include "libsph/Particles.h"
+#include "libsph/boundary/Boundary.h"
+#include "libsph/boundary/BoundaryParticles.h"
+#include "libsph/io/TriangleMesh.h"
+#include "libsph/solver/SolverSettings.h"
+#include "libsph/solver/TimeStep.h"
+
+#include <iosfwd>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace cascade {
+
+class Simulation {
+public:
+  /// Throws InputError for invalid settings or an unknown solver type.
+  explicit Simulation(const SimulationSettings& settings);
+  ~Simulation();
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  const SimulationSettings& settings() const { return mSettings; }
+
+  // --- set-up (boundaries before the first step) ---
+  /// Adds a boundary; returns its index (force attribution, probes).
+  std::size_t addBoundary(BoundaryPtr boundary);
+  std::size_t boundaryCount() const { return mBoundaries.size(); }
+  const Boundary& boundary(std::size_t index) const { return *mBoundaries[index]; }
+  /// Index of the boundary with this name, or -1.
+  long findBoundary(const std::string& name) const;
+
+  /// Adds one fluid particle (emitters too); returns its id.
+  ParticleId addParticle(const Vec3r& position, const Vec3r& velocity);
+  /// Fills [lo, hi] with particles on the lattice of the fluid spacing (first
+  /// particle half a spacing inside each face); returns the number added.
+  std::size_t addFluidBox(const Vec3r& lo, const Vec3r& hi, const Vec3r& velocity = Vec3r::Zero());
+
+  // --- running ---
+  /// One adaptive step; returns dt (s).
+  double step();
+  /// Steps until time() == endTime (the last step shortened to land on it).
+  void advanceTo(double endTime);
+  /// The time step the next step() would take (starts the simulation if needed).
+  double nextTimeStep();
+
+  double time() const { return mTime; }
+  std::uint64_t stepCount() const { return mStepCount; }
+  double lastTimeStep() const { return mLastTimeStep; }
+
+  // --- state ---
+  const Particles& particles() const { return mParticles; }
+  /// Mutable access for scene set-up and tests; do not change the count
+  /// other than through addParticle() / addFluidBox().
+  Particles& particles() { return mParticles; }
+  /// Particles removed because they left the domain, since the start.
+  std::uint64_t removedCount() const { return mRemovedCount; }
+  /// The derived constants (valid after the first step or nextTimeStep()).
+  const DerivedConstants& constants() const { return mConstants; }
+  Real supportRadius() const;
+  Real particleMass() const;
+
+  /// Force the fluid exerted on boundary `index` during the last step, N
+  /// (type I repulsion and type II mirror pressure and viscosity).
+  Vec3d obstacleForce(std::size_t index) const;
+
+  /// The type I particles (after the first step or nextTimeStep()).
+  const BoundaryParticles& boundaryParticles() const { return mBoundaryParticles; }
+  std::size_t boundaryParticleCount() const { return mBoundaryParticles.sampleCount(); }
+
+  /// All solids as one mesh in world coordinates, one group per boundary (named
+  /// after it); the bake writes it to OUT/geometry/solids.obj.
+  TriangleMesh solidsMesh() const;
+
+  /// Time per phase, summed since the start (or since resetTimings()).
+  const StepTimings& timings() const { return mTimings; }
+  void resetTimings() { mTimings = StepTimings(); }
+
+  const TimeStep& timeStep() const { return *mTimeStep; }
+
+  // --- checkpoints ---
+  /// Writes the whole dynamic state (time, step count, ids, derived constants,
+  /// particle arrays, strategy state) in binary. Settings and boundaries are
+  /// not written: restore into a Simulation set up the same way.
+  void save(std::ostream& out) const;
+  /// Restores what save() wrote; throws InputError("checkpoint: ...") if the
+  /// data is truncated or from another set-up.
+  void restore(std::istream& in);
+  void save(const std::string& path) const;      ///< atomically
+  void restore(const std::string& path);
+
+private:
+  void start();
+  void reorder();
+  void removeOutside();
+  void checkStability() const;
+  double computeTimeStep() const;
+
+  SimulationSettings mSettings;
+  DerivedConstants mConstants;
+  Particles mParticles;
+  std::vector<BoundaryPtr> mBoundaries;
+  BoundaryParticles mBoundaryParticles;
+  std::unique_ptr<NeighborSearch> mSearch;
+  std::unique_ptr<TimeStep> mTimeStep;
+  NeighborLists mNeighbors;
+  std::vector<Vec3r> mAcceleration;
+  std::vector<Vec3d> mObstacleForce;
+  StepTimings mTimings;
+  double mTime = 0, mLastTimeStep = 0;
+  Real mLastMaxAcceleration = 0;
+  std::uint64_t mStepCount = 0, mRemovedCount = 0;
+  ParticleId mNextId = 0;
+  bool mStarted = false;
+};
+
+} // namespace cascade

@@ -1,0 +1,114 @@
+/// @file SolverSettings.h
+/// @brief The settings of a simulation as plain structs with documented
+///        defaults: the fluid (SEED section 1), the time-step strategy and its
+///        equation of state (SEED (10); Tait: Monaghan 1994, Becker & Teschner
+///        2007), the adaptive CFL time step, and the two kinds of virtual
+///        boundary particles (SEED section 2.2).
+///
+/// A value of 0 for a derived quantity (stiffness, repulsion strength,
+/// repulsion radius, expected speed) means "derive it as documented" when
+/// the simulation starts; the derived values are kept in checkpoints.
+#pragma once
+
+#include "libsph/Types.h"
+
+#include <string>
+
+namespace cascade {
+
+/// The fluid (SEED section 1).
+struct FluidSettings {
+  Real spacing = Real(0.02);        ///< initial particle spacing, m; mass = restDensity * spacing^3
+  Real restDensity = Real(1000);    ///< rho_0, kg/m^3
+  Real viscosity = Real(0);         ///< dynamic viscosity mu of SEED (6), Pa s; 0 skips the term
+};
+
+/// SEED (10) linear p = k (rho - rho_0), or Tait p = (rho_0 k / gamma) ((rho/rho_0)^gamma - 1).
+/// With the same k both have the same speed of sound sqrt(k) at rest density.
+enum class EquationOfState { Linear, Tait };
+
+struct SolverSettings {
+  std::string type = "wcsph";        ///< time-step strategy: "wcsph" (SEED); later "dfsph"
+  Real supportRadiusFactor = Real(2);  ///< support radius h = factor * spacing
+
+  // --- WCSPH equation of state (SEED (10)) ---
+  EquationOfState equationOfState = EquationOfState::Linear;
+  Real taitExponent = Real(7);        ///< gamma of Tait's equation
+  /// k of SEED (10), m^2/s^2 (= squared speed of sound). 0: (10 * expectedSpeed)^2,
+  /// the weakly compressible choice (density varies by about 1 %).
+  Real stiffness = Real(0);
+  bool clampNegativePressure = true;  ///< p = max(p, 0): no tensile pull at the free surface
+  /// Monaghan (1992) artificial viscosity alpha, added to SEED (6) for stability; 0 = off.
+  Real artificialViscosity = Real(0.05);
+
+  /// The largest speed the scene is expected to produce, m/s. 0: the free-fall
+  /// speed sqrt(2 |g| H) over the height H from the lowest boundary (or fluid)
+  /// point to the highest fluid point, or the largest initial / emitted speed,
+  /// whichever is larger. Sets the default stiffness, the default repulsion
+  /// strength D and the instability threshold.
+  Real expectedSpeed = Real(0);
+  /// A particle faster than this multiple of expectedSpeed (or NaN) stops the
+  /// simulation with InstabilityError.
+  Real instabilitySpeedFactor = Real(20);
+
+  // --- DFSPH (issue 7; unused by WCSPH) ---
+  Real densityTolerance = Real(0.0005);     ///< relative average density error
+  Real divergenceTolerance = Real(0.001);   ///< relative divergence error per second
+  int maxIterations = 100;
+
+  // --- adaptive time step ---
+  /// dt = min(cflFactor h / (c + v_max), 0.125 h^2 / nu (viscous), 0.25 sqrt(h / a_max) (force)),
+  /// clamped to [minTimeStep, maxTimeStep].
+  Real cflFactor = Real(0.4);
+  Real minTimeStep = Real(1e-6);   ///< s
+  Real maxTimeStep = Real(5e-3);   ///< s
+
+  Vec3r gravity = Vec3r(0, 0, -kStandardGravity);  ///< m/s^2, z up
+
+  std::string neighborSearch = "grid";  ///< makeNeighborSearch() method
+  int reorderInterval = 25;             ///< steps between Morton reorders; 0 = never
+};
+
+/// How mirror (type II) particles take the velocity of their source.
+enum class MirrorSlip {
+  FreeSlip,  ///< normal component reversed, tangential kept
+  NoSlip,    ///< whole velocity reversed
+};
+
+/// The two kinds of virtual boundary particles (SEED section 2.2).
+struct BoundarySettings {
+  bool repulsionParticles = true;   ///< type I (Monaghan 1994), SEED (11)
+  bool mirrorParticles = true;      ///< type II (Libersky & Petschke 1993)
+  /// D of SEED (11), m^2/s^2. 0: expectedSpeed^2 (the SEED: "of the order of
+  /// the squared maximum speed").
+  Real repulsionStrength = Real(0);
+  /// r0 of SEED (11), m. 0: the fluid spacing.
+  Real repulsionRadius = Real(0);
+  /// Largest gap between neighbouring type I particles, as a fraction of r0
+  /// (SEED: no gap may exceed r0; meshes are subdivided until it holds).
+  Real sampleGap = Real(0.5);
+  MirrorSlip slip = MirrorSlip::FreeSlip;
+  /// Mirror particles are made for fluid particles closer than kappa * h to a
+  /// boundary (SEED: kappa = 1 or 2).
+  Real kappa = Real(1);
+};
+
+/// Particles outside [min, max] are removed and counted (never left to fly to infinity).
+struct DomainSettings {
+  bool enabled = false;
+  Vec3r min = Vec3r::Constant(Real(-1e6));
+  Vec3r max = Vec3r::Constant(Real(1e6));
+};
+
+struct SimulationSettings {
+  FluidSettings fluid;
+  SolverSettings solver;
+  BoundarySettings boundary;
+  DomainSettings domain;
+};
+
+/// Throws InputError("<context>: <field>: must be ... (got ...)") on an
+/// out-of-range value. `context` names the source (a scene file).
+void validateSettings(const SimulationSettings& settings, const std::string& context);
+
+} // namespace cascade

@@ -1,0 +1,81 @@
+/// @file TimeStep.h
+/// @brief The interface of a time-step strategy (a solver named after its
+///        method: TimeStepWCSPH, TimeStepDFSPH). The Simulation builds the
+///        neighbour lists and the boundary particles once per step and hands
+///        them to the strategy, which computes the fluid forces and advances
+///        velocities and positions by dt.
+#pragma once
+
+#include "libsph/NeighborSearch.h"
+#include "libsph/Particles.h"
+#include "libsph/solver/SolverSettings.h"
+
+#include <iosfwd>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace cascade {
+
+class BoundaryParticles;
+
+/// Wall-clock milliseconds spent per phase, summed over steps.
+struct StepTimings {
+  double neighbors = 0, density = 0, forces = 0, boundary = 0, integrate = 0;
+  std::uint64_t steps = 0;
+  double total() const { return neighbors + density + forces + boundary + integrate; }
+};
+
+/// Quantities derived once when the simulation starts (kept in checkpoints).
+struct DerivedConstants {
+  Real supportRadius = 0;      ///< h, m
+  Real particleMass = 0;       ///< m, kg
+  Real expectedSpeed = 0;      ///< m/s
+  Real stiffness = 0;          ///< k of SEED (10), m^2/s^2
+  Real speedOfSound = 0;       ///< sqrt(k), m/s
+  Real repulsionStrength = 0;  ///< D of SEED (11), m^2/s^2
+  Real repulsionRadius = 0;    ///< r0 of SEED (11), m
+};
+
+/// Everything a strategy reads and writes in one step.
+struct StepContext {
+  Particles& particles;
+  const NeighborLists& neighbors;        ///< fluid neighbours within h, without self
+  const BoundaryParticles& boundary;     ///< type I samples and type II mirrors of this step
+  const SimulationSettings& settings;
+  const DerivedConstants& constants;
+  std::vector<Vec3r>& acceleration;      ///< scratch, one per particle
+  std::vector<Vec3d>& obstacleForce;     ///< out: force on each boundary by the fluid, N
+  StepTimings& timings;
+  double time = 0;                       ///< s, at the start of the step
+  Real maxAcceleration = 0;              ///< out: largest |a| of the step (force limit of dt)
+};
+
+class TimeStep {
+public:
+  virtual ~TimeStep() = default;
+  /// The method's name as used in scenes ("wcsph", "dfsph").
+  virtual std::string name() const = 0;
+  /// Computes forces and advances velocities and positions by dt.
+  virtual void advance(StepContext& context, Real dt) = 0;
+  /// An extra upper bound on dt the method needs (infinity if none).
+  virtual Real timeStepLimit(const StepContext&) const { return std::numeric_limits<Real>::infinity(); }
+
+  // Per-particle state a strategy keeps (e.g. warm starts) follows the particles:
+  virtual void permute(const std::vector<std::size_t>& /*order*/) {}
+  virtual void removeIf(const std::vector<char>& /*remove*/) {}
+  virtual void resize(std::size_t /*count*/) {}
+  /// Exact binary save / restore of the strategy's own state.
+  virtual void save(std::ostream& /*out*/) const {}
+  virtual void restore(std::istream& /*in*/) {}
+};
+
+/// Creates the strategy for a solver type ("wcsph"; a new strategy adds one
+/// line to makeTimeStep in TimeStep.cpp). Throws std::invalid_argument for an
+/// unknown type.
+std::unique_ptr<TimeStep> makeTimeStep(const std::string& type);
+/// The types makeTimeStep accepts.
+std::vector<std::string> timeStepTypes();
+
+} // namespace cascade
