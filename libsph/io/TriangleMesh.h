@@ -1,0 +1,46 @@
+/// @file TriangleMesh.h
+/// @brief A plain indexed triangle mesh with optional per-vertex normals and
+///        named groups, and its Wavefront OBJ reader and writer. Used for
+///        OUT/mesh/fluid.NNNN.obj (surfacing writes, render reads) and for
+///        OUT/geometry/solids.obj (the bake writes the scene's solid geometry
+///        in world coordinates, render draws it).
+#pragma once
+
+#include "libsph/Types.h"
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace cascade {
+
+struct TriangleMesh {
+  std::vector<Eigen::Vector3f> vertices;
+  std::vector<Eigen::Vector3f> normals;  ///< per vertex; empty or vertices.size()
+  std::vector<std::array<std::uint32_t, 3>> triangles;  ///< counter-clockwise seen from outside
+
+  /// Named ranges of triangles (OBJ "g NAME"): triangles [begin, end).
+  struct Group {
+    std::string name;
+    std::size_t begin = 0, end = 0;
+  };
+  std::vector<Group> groups;
+
+  bool empty() const { return triangles.empty(); }
+  /// Area-weighted per-vertex normals from the triangles.
+  void computeNormals();
+  /// Appends another mesh (its groups too).
+  void append(const TriangleMesh& other);
+};
+
+/// Writes OBJ ("v", "vn", "g", "f a//a b//b c//c"), atomically.
+void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh);
+
+/// Reads OBJ written by writeObj or another tool (v, vn, g/o, f with any of
+/// the index forms, polygons fanned into triangles, negative indices).
+/// A missing or malformed file throws InputError naming the file and line.
+TriangleMesh readObj(const std::filesystem::path& path);
+
+} // namespace cascade
