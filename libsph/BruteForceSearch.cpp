@@ -3,7 +3,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include <stdexcept>
 
 namespace cascade {
 
@@ -40,13 +39,6 @@ void assembleNeighborLists(const std::vector<std::vector<std::uint32_t>>& perQue
   tbb::parallel_for(std::size_t(0), perQuery.size(), [&](std::size_t q) {
     std::copy(perQuery[q].begin(), perQuery[q].end(), out.indices.begin() + out.offsets[q]);
   });
-}
-
-std::vector<std::string> neighborSearchMethods() { return {"brute"}; }
-
-std::unique_ptr<NeighborSearch> makeNeighborSearch(const std::string& method) {
-  if (method == "brute") return std::make_unique<BruteForceSearch>();
-  throw std::invalid_argument("unknown neighbour search method '" + method + "'");
 }
 
 } // namespace cascade

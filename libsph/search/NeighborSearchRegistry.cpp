@@ -1,0 +1,18 @@
+// makeNeighborSearch() and neighborSearchMethods() of libsph/NeighborSearch.h:
+// the one place that knows every search method by name.
+#include "libsph/NeighborSearch.h"
+#include "libsph/search/UniformGridSearch.h"
+
+#include <stdexcept>
+
+namespace cascade {
+
+std::vector<std::string> neighborSearchMethods() { return {"brute", "grid"}; }
+
+std::unique_ptr<NeighborSearch> makeNeighborSearch(const std::string& method) {
+  if (method == "brute") return std::make_unique<BruteForceSearch>();
+  if (method == "grid") return std::make_unique<search::UniformGridSearch>();
+  throw std::invalid_argument("unknown neighbour search method '" + method + "'");
+}
+
+} // namespace cascade

@@ -1,0 +1,593 @@
+#include "libsph/search/UniformGridSearch.h"
+
+#include "libsph/search/MortonCode.h"
+#include "libsph/search/RadixSort.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+
+#if defined(__SSE2__) && !defined(CASCADE_DOUBLE)
+#include <immintrin.h>
+#define CASCADE_GRID_SSE 1
+#endif
+
+namespace cascade::search {
+
+namespace {
+
+constexpr std::int64_t kMaxCell = kMortonMaxCoord;
+constexpr std::uint32_t kNoIndex = std::numeric_limits<std::uint32_t>::max();
+/// Enlarges the cell edge over the build radius so that rounding never moves a
+/// neighbour (within the build radius) outside the 27 cells around a query.
+constexpr double kCellMargin = 1.0 / 1024.0;
+/// Enlarges a query's cell-range bounds over its radius: covers the rounding of
+/// the float squared distance (a few ulp) and of the bounds themselves.
+constexpr double kRangeMargin = 1e-5;
+constexpr double kRangeSlack = 1e-20;
+constexpr std::size_t kPad = 8;
+
+struct Bounds {
+  double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                  std::numeric_limits<double>::infinity()};
+  double hi[3] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+                  -std::numeric_limits<double>::infinity()};
+  void add(const Vec3r& p) {
+    for (int a = 0; a < 3; ++a) {
+      const double v = p[a];
+      if (!std::isfinite(v)) return;
+    }
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], double(p[a]));
+      hi[a] = std::max(hi[a], double(p[a]));
+    }
+  }
+  void join(const Bounds& other) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], other.lo[a]);
+      hi[a] = std::max(hi[a], other.hi[a]);
+    }
+  }
+  bool empty() const { return !(lo[0] <= hi[0]); }
+};
+
+/// floor(t) limited to [-1, kMaxCell + 1]; NaN gives -1. Monotone in t.
+inline std::int64_t cellFloor(double t) {
+  const double c = std::floor(t);
+  if (!(c >= -1.0)) return -1;
+  if (c > double(kMaxCell + 1)) return kMaxCell + 1;
+  return static_cast<std::int64_t>(c);
+}
+
+inline std::uint32_t clampCell(std::int64_t c) {
+  return static_cast<std::uint32_t>(std::clamp<std::int64_t>(c, 0, kMaxCell));
+}
+
+inline std::uint64_t hashKey(std::uint64_t key) { return key * 0x9E3779B97F4A7C15ULL; }
+
+struct CellRange {
+  std::uint32_t begin, end;
+};
+
+/// Tests the points at places [begin, end) against query q with squared radius
+/// radius2, writing the point indices (order[place]) of the neighbours to out.
+/// Returns how many were written. Exactly squaredDistance(q, p) <= radius2.
+inline std::uint32_t scanRange(const Real* xs, const Real* ys, const Real* zs,
+                               const std::uint32_t* order, std::uint32_t begin, std::uint32_t end,
+                               Real qx, Real qy, Real qz, Real radius2, std::uint32_t exclude,
+                               std::uint32_t* out) {
+  std::uint32_t n = 0;
+#ifdef CASCADE_GRID_SSE
+  const __m128 vx = _mm_set1_ps(qx), vy = _mm_set1_ps(qy), vz = _mm_set1_ps(qz);
+  const __m128 vr2 = _mm_set1_ps(radius2);
+  for (std::uint32_t j = begin; j < end; j += 4) {
+    const __m128 dx = _mm_sub_ps(vx, _mm_loadu_ps(xs + j));
+    const __m128 dy = _mm_sub_ps(vy, _mm_loadu_ps(ys + j));
+    const __m128 dz = _mm_sub_ps(vz, _mm_loadu_ps(zs + j));
+    // ((dx*dx + dy*dy) + dz*dz), the evaluation order of squaredDistance().
+    const __m128 d2 =
+        _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+    unsigned mask = static_cast<unsigned>(_mm_movemask_ps(_mm_cmple_ps(d2, vr2)));
+    if (end - j < 4) mask &= (1u << (end - j)) - 1u;
+    while (mask) {
+      const unsigned bit = static_cast<unsigned>(__builtin_ctz(mask));
+      mask &= mask - 1;
+      const std::uint32_t index = order[j + bit];
+      out[n] = index;
+      n += (index != exclude);
+    }
+  }
+#else
+  const Vec3r q(qx, qy, qz);
+  for (std::uint32_t j = begin; j < end; ++j) {
+    if (squaredDistance(q, Vec3r(xs[j], ys[j], zs[j])) <= radius2) {
+      const std::uint32_t index = order[j];
+      out[n] = index;
+      n += (index != exclude);
+    }
+  }
+#endif
+  return n;
+}
+
+} // namespace
+
+void UniformGridSearch::computeFrame(const Vec3r* points, std::size_t count, Real maxSupportRadius) {
+  const Bounds bounds = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, count, 4096), Bounds{},
+      [&](const tbb::blocked_range<std::size_t>& range, Bounds local) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) local.add(points[i]);
+        return local;
+      },
+      [](Bounds a, const Bounds& b) {
+        a.join(b);
+        return a;
+      });
+  double cellSize = double(maxSupportRadius) * (1.0 + kCellMargin);
+  if (!(cellSize > 0) || !std::isfinite(cellSize)) {
+    double extent = 0;
+    if (!bounds.empty())
+      for (int a = 0; a < 3; ++a) extent = std::max(extent, bounds.hi[a] - bounds.lo[a]);
+    cellSize = extent > 0 && std::isfinite(extent) ? extent / 1024.0 : 1.0;
+  }
+  mCellSize = cellSize;
+  mInvCellSize = 1.0 / cellSize;
+  for (int a = 0; a < 3; ++a) {
+    // The origin snaps to the global lattice of cells so that it rarely changes
+    // between builds (the incremental rebuild needs the same cells).
+    mOrigin[a] = bounds.empty() ? 0.0 : cellSize * std::floor(bounds.lo[a] * mInvCellSize);
+    if (!std::isfinite(mOrigin[a])) mOrigin[a] = 0;
+    mMaxCell[a] = bounds.empty() ? 0 : clampCell(cellFloor((bounds.hi[a] - mOrigin[a]) * mInvCellSize));
+  }
+}
+
+void UniformGridSearch::build(const Vec3r* points, std::size_t count, Real maxSupportRadius) {
+  if (count >= std::size_t(kNoIndex))
+    throw std::length_error("grid neighbour search: too many points (" + std::to_string(count) + ")");
+  const double oldOrigin[3] = {mOrigin[0], mOrigin[1], mOrigin[2]};
+  const double oldCellSize = mCellSize;
+  computeFrame(points, count, maxSupportRadius);
+  const bool sameFrame = mHaveFrame && oldCellSize == mCellSize && oldOrigin[0] == mOrigin[0] &&
+                         oldOrigin[1] == mOrigin[1] && oldOrigin[2] == mOrigin[2];
+  sortPoints(points, count, sameFrame);
+  mPoints = points;
+  mCount = count;
+  mRadius = maxSupportRadius;
+  mHaveFrame = true;
+
+  // Positions in curve order, padded so that vector loads may read past a range.
+  mX.resize(count + kPad);
+  mY.resize(count + kPad);
+  mZ.resize(count + kPad);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 8192), [&](const auto& range) {
+    for (std::size_t k = range.begin(); k != range.end(); ++k) {
+      const Vec3r& p = points[mOrder[k]];
+      mX[k] = p.x();
+      mY[k] = p.y();
+      mZ[k] = p.z();
+    }
+  });
+  for (std::size_t k = count; k < count + kPad; ++k)
+    mX[k] = mY[k] = mZ[k] = std::numeric_limits<Real>::quiet_NaN();
+  buildCells();
+}
+
+void UniformGridSearch::sortPoints(const Vec3r* points, std::size_t count, bool sameFrame) {
+  // Morton key of every point, by point index.
+  std::vector<std::uint64_t>& pointKey = mKeyScratch2;
+  pointKey.resize(count);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 8192), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const Vec3r& p = points[i];
+      std::uint32_t c[3];
+      for (int a = 0; a < 3; ++a)
+        c[a] = clampCell(cellFloor((double(p[a]) - mOrigin[a]) * mInvCellSize));
+      pointKey[i] = mortonEncode(c[0], c[1], c[2]);
+    }
+  });
+  const int keyBits =
+      3 * bitWidth(std::max({std::uint64_t(mMaxCell[0]), std::uint64_t(mMaxCell[1]),
+                             std::uint64_t(mMaxCell[2])}));
+
+  mLastIncremental = false;
+  mLastMoved = count;
+  if (mIncremental && sameFrame && mCount == count && mKeys.size() == count && count > 0) {
+    // Base order: the previous curve order, or the identity when the caller has
+    // reordered its points along it since (Particles::permute(zOrder())).
+    struct Moved {
+      std::size_t previous = 0, identity = 0;
+    };
+    const Moved moved = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, count, 8192), Moved{},
+        [&](const tbb::blocked_range<std::size_t>& range, Moved local) {
+          for (std::size_t k = range.begin(); k != range.end(); ++k) {
+            local.previous += pointKey[mOrder[k]] != mKeys[k];
+            local.identity += pointKey[k] != mKeys[k];
+          }
+          return local;
+        },
+        [](Moved a, const Moved& b) {
+          a.previous += b.previous;
+          a.identity += b.identity;
+          return a;
+        });
+    const bool useIdentity = moved.identity < moved.previous;
+    const std::size_t movedCount = useIdentity ? moved.identity : moved.previous;
+    if (movedCount <= count / 4) {
+      mLastIncremental = true;
+      mLastMoved = movedCount;
+      if (useIdentity) std::iota(mOrder.begin(), mOrder.end(), 0u);
+      // Points whose cell is unchanged keep their (sorted) places; the moved
+      // ones are sorted on their own and merged in after the kept points of
+      // their cell.
+      std::vector<std::uint64_t> movedKeys;
+      std::vector<std::uint32_t> movedIndex;
+      movedKeys.reserve(movedCount);
+      movedIndex.reserve(movedCount);
+      std::vector<std::uint64_t>& keptKeys = mKeyScratch;
+      std::vector<std::uint32_t>& keptIndex = mIndexScratch;
+      keptKeys.resize(count);
+      keptIndex.resize(count);
+      std::size_t kept = 0;
+      for (std::size_t k = 0; k < count; ++k) {
+        const std::uint32_t index = mOrder[k];
+        const std::uint64_t key = pointKey[index];
+        if (key == mKeys[k]) {
+          keptKeys[kept] = key;
+          keptIndex[kept++] = index;
+        } else {
+          movedKeys.push_back(key);
+          movedIndex.push_back(index);
+        }
+      }
+      std::vector<std::uint64_t> keyScratch;
+      std::vector<std::uint32_t> indexScratch;
+      radixSortPairs(movedKeys, movedIndex, keyBits, keyScratch, indexScratch);
+      std::size_t a = 0, b = 0, k = 0;
+      const std::size_t moves = movedKeys.size();
+      while (a < kept && b < moves) {
+        if (movedKeys[b] < keptKeys[a]) {
+          mKeys[k] = movedKeys[b];
+          mOrder[k++] = movedIndex[b++];
+        } else {
+          mKeys[k] = keptKeys[a];
+          mOrder[k++] = keptIndex[a++];
+        }
+      }
+      for (; a < kept; ++a, ++k) {
+        mKeys[k] = keptKeys[a];
+        mOrder[k] = keptIndex[a];
+      }
+      for (; b < moves; ++b, ++k) {
+        mKeys[k] = movedKeys[b];
+        mOrder[k] = movedIndex[b];
+      }
+      return;
+    }
+  }
+  // Full rebuild: radix sort of (key, index) in index order.
+  mKeys.assign(pointKey.begin(), pointKey.end());
+  mOrder.resize(count);
+  std::iota(mOrder.begin(), mOrder.end(), 0u);
+  radixSortPairs(mKeys, mOrder, keyBits, mKeyScratch, mIndexScratch);
+}
+
+void UniformGridSearch::buildCells() {
+  const std::size_t n = mKeys.size();
+  mCellStart.clear();
+  mCellKey.clear();
+  for (std::size_t k = 0; k < n; ++k) {
+    if (k == 0 || mKeys[k] != mKeys[k - 1]) {
+      mCellStart.push_back(static_cast<std::uint32_t>(k));
+      mCellKey.push_back(mKeys[k]);
+    }
+  }
+  mCellStart.push_back(static_cast<std::uint32_t>(n));
+  const std::size_t cells = mCellKey.size();
+  std::size_t capacity = 16;
+  while (capacity < 2 * cells) capacity *= 2;
+  mHashSlots.assign(capacity, 0);
+  mHashMask = capacity - 1;
+  for (std::size_t c = 0; c < cells; ++c) {
+    std::uint64_t slot = (hashKey(mCellKey[c]) >> 20) & mHashMask;
+    while (mHashSlots[slot] != 0) slot = (slot + 1) & mHashMask;
+    mHashSlots[slot] = static_cast<std::uint32_t>(c + 1);
+  }
+}
+
+std::int64_t UniformGridSearch::findCell(std::uint64_t key) const {
+  std::uint64_t slot = (hashKey(key) >> 20) & mHashMask;
+  for (;;) {
+    const std::uint32_t entry = mHashSlots[slot];
+    if (entry == 0) return -1;
+    if (mCellKey[entry - 1] == key) return entry - 1;
+    slot = (slot + 1) & mHashMask;
+  }
+}
+
+std::vector<std::size_t> UniformGridSearch::zOrder() const {
+  return std::vector<std::size_t>(mOrder.begin(), mOrder.end());
+}
+
+/// One query() call: the queries grouped by cell, processed in parallel chunks.
+struct GridQuery {
+  const UniformGridSearch& grid;
+  const Vec3r* queries;
+  const Real* radii;
+  bool excludeSelf;
+  bool self;  ///< the queries are the indexed points: their places are the grid's
+  const std::uint32_t* queryOrder;     ///< query index per query place
+  const std::uint32_t* groupStart;     ///< first query place of each group, plus the end
+  const std::uint64_t* groupKey;       ///< Morton key of each group's (clamped) cell
+
+  struct Stencil {
+    std::array<CellRange, 27> ranges;   ///< per cell offset, empty if no such cell
+    std::array<CellRange, 27> merged;   ///< non-empty ranges, adjacent ones joined
+    int mergedCount = 0;
+    std::uint32_t candidates = 0;
+  };
+
+  void makeStencil(std::uint64_t key, Stencil& stencil) const {
+    std::uint32_t c[3];
+    mortonDecode(key, c[0], c[1], c[2]);
+    int slot = 0;
+    std::array<CellRange, 27> sorted;
+    int nonEmpty = 0;
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx, ++slot) {
+          CellRange range{0, 0};
+          const std::int64_t x = std::int64_t(c[0]) + dx, y = std::int64_t(c[1]) + dy,
+                             z = std::int64_t(c[2]) + dz;
+          if (x >= 0 && y >= 0 && z >= 0 && x <= grid.mMaxCell[0] && y <= grid.mMaxCell[1] &&
+              z <= grid.mMaxCell[2]) {
+            const std::int64_t cell = grid.findCell(mortonEncode(std::uint32_t(x), std::uint32_t(y),
+                                                                 std::uint32_t(z)));
+            if (cell >= 0) range = {grid.mCellStart[cell], grid.mCellStart[cell + 1]};
+          }
+          stencil.ranges[slot] = range;
+          if (range.end > range.begin) sorted[nonEmpty++] = range;
+        }
+    std::sort(sorted.begin(), sorted.begin() + nonEmpty,
+              [](const CellRange& a, const CellRange& b) { return a.begin < b.begin; });
+    stencil.mergedCount = 0;
+    stencil.candidates = 0;
+    for (int i = 0; i < nonEmpty; ++i) {
+      stencil.candidates += sorted[i].end - sorted[i].begin;
+      if (stencil.mergedCount > 0 && stencil.merged[stencil.mergedCount - 1].end == sorted[i].begin)
+        stencil.merged[stencil.mergedCount - 1].end = sorted[i].end;
+      else
+        stencil.merged[stencil.mergedCount++] = sorted[i];
+    }
+  }
+
+  /// Scans every occupied cell in the box [lo, hi] of (clamped) cell coordinates.
+  template <typename Emit>
+  void scanBox(const std::uint32_t lo[3], const std::uint32_t hi[3], Emit&& emit) const {
+    const double boxCells = double(hi[0] - lo[0] + 1) * double(hi[1] - lo[1] + 1) *
+                            double(hi[2] - lo[2] + 1);
+    if (boxCells > 4.0 * double(grid.cellCount())) {
+      for (std::size_t cell = 0; cell < grid.cellCount(); ++cell) {
+        std::uint32_t c[3];
+        mortonDecode(grid.mCellKey[cell], c[0], c[1], c[2]);
+        if (c[0] >= lo[0] && c[0] <= hi[0] && c[1] >= lo[1] && c[1] <= hi[1] && c[2] >= lo[2] &&
+            c[2] <= hi[2])
+          emit(grid.mCellStart[cell], grid.mCellStart[cell + 1]);
+      }
+      return;
+    }
+    for (std::uint32_t z = lo[2]; z <= hi[2]; ++z)
+      for (std::uint32_t y = lo[1]; y <= hi[1]; ++y)
+        for (std::uint32_t x = lo[0]; x <= hi[0]; ++x) {
+          const std::int64_t cell = grid.findCell(mortonEncode(x, y, z));
+          if (cell >= 0) emit(grid.mCellStart[cell], grid.mCellStart[cell + 1]);
+        }
+  }
+
+  /// Processes the query places of groups [groupBegin, groupEnd) into buffer;
+  /// writes each query's neighbour count to counts[query index].
+  void runChunk(std::size_t groupBegin, std::size_t groupEnd, std::vector<std::uint32_t>& buffer,
+                std::size_t& used, std::uint32_t* counts) const {
+    Stencil stencil;
+    used = 0;
+    const Real* xs = grid.mX.data();
+    const Real* ys = grid.mY.data();
+    const Real* zs = grid.mZ.data();
+    const std::uint32_t* order = grid.mOrder.data();
+    auto reserve = [&](std::size_t extra) {
+      if (used + extra + 1 > buffer.size()) buffer.resize(std::max(2 * buffer.size(), used + extra + 1024));
+    };
+    for (std::size_t g = groupBegin; g < groupEnd; ++g) {
+      std::uint32_t c[3];
+      mortonDecode(groupKey[g], c[0], c[1], c[2]);
+      bool haveStencil = false;
+      for (std::uint32_t s = groupStart[g]; s < groupStart[g + 1]; ++s) {
+        const std::uint32_t q = queryOrder[s];
+        Real qx, qy, qz;
+        if (self) {
+          qx = xs[s];
+          qy = ys[s];
+          qz = zs[s];
+        } else {
+          qx = queries[q].x();
+          qy = queries[q].y();
+          qz = queries[q].z();
+        }
+        const Real radius = radii ? radii[q] : grid.mRadius;
+        const Real radius2 = radius * radius;
+        const std::uint32_t exclude = excludeSelf ? q : kNoIndex;
+        const double reach = std::fabs(double(radius)) * (1.0 + kRangeMargin) + kRangeSlack;
+        const double qpos[3] = {double(qx), double(qy), double(qz)};
+        std::int64_t lo[3], hi[3], own[3];
+        bool empty = false, inStencil = true;
+        for (int a = 0; a < 3; ++a) {
+          lo[a] = cellFloor((qpos[a] - reach - grid.mOrigin[a]) * grid.mInvCellSize);
+          hi[a] = cellFloor((qpos[a] + reach - grid.mOrigin[a]) * grid.mInvCellSize);
+          own[a] = cellFloor((qpos[a] - grid.mOrigin[a]) * grid.mInvCellSize);
+          if (hi[a] < 0 || !(reach >= 0)) empty = true;
+          if (own[a] != std::int64_t(c[a]) || lo[a] < own[a] - 1 || hi[a] > own[a] + 1)
+            inStencil = false;
+        }
+        std::uint32_t found = 0;
+        if (!empty && inStencil) {
+          if (!haveStencil) {
+            makeStencil(groupKey[g], stencil);
+            haveStencil = true;
+          }
+          reserve(stencil.candidates);
+          std::uint32_t* out = buffer.data() + used;
+          const bool full = lo[0] < own[0] && lo[1] < own[1] && lo[2] < own[2] && hi[0] > own[0] &&
+                            hi[1] > own[1] && hi[2] > own[2];
+          if (full) {
+            for (int r = 0; r < stencil.mergedCount; ++r)
+              found += scanRange(xs, ys, zs, order, stencil.merged[r].begin, stencil.merged[r].end,
+                                 qx, qy, qz, radius2, exclude, out + found);
+          } else {
+            int slot = 0;
+            for (int dz = -1; dz <= 1; ++dz)
+              for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx, ++slot) {
+                  if (own[0] + dx < lo[0] || own[0] + dx > hi[0] || own[1] + dy < lo[1] ||
+                      own[1] + dy > hi[1] || own[2] + dz < lo[2] || own[2] + dz > hi[2])
+                    continue;
+                  const CellRange& range = stencil.ranges[slot];
+                  if (range.end > range.begin)
+                    found += scanRange(xs, ys, zs, order, range.begin, range.end, qx, qy, qz,
+                                       radius2, exclude, out + found);
+                }
+          }
+        } else if (!empty) {
+          std::uint32_t boxLo[3], boxHi[3];
+          for (int a = 0; a < 3; ++a) {
+            boxLo[a] = clampCell(lo[a]);
+            boxHi[a] = std::min(clampCell(hi[a]), grid.mMaxCell[a]);
+            if (boxLo[a] > boxHi[a]) empty = true;
+          }
+          if (!empty)
+            scanBox(boxLo, boxHi, [&](std::uint32_t begin, std::uint32_t end) {
+              reserve(found + (end - begin));
+              found += scanRange(xs, ys, zs, order, begin, end, qx, qy, qz, radius2, exclude,
+                                 buffer.data() + used + found);
+            });
+        }
+        used += found;
+        counts[q] = found;
+      }
+    }
+  }
+};
+
+void UniformGridSearch::query(const Vec3r* queries, std::size_t count, const Real* supportRadii,
+                              bool excludeSelf, NeighborLists& out) const {
+  out.offsets.resize(count + 1);
+  out.offsets[0] = 0;
+  if (count == 0 || mCount == 0) {
+    std::fill(out.offsets.begin(), out.offsets.end(), 0u);
+    out.indices.clear();
+    return;
+  }
+  if (count >= std::size_t(kNoIndex))
+    throw std::length_error("grid neighbour search: too many queries (" + std::to_string(count) + ")");
+
+  std::unique_lock<std::mutex> lock(mScratchMutex, std::try_to_lock);
+  std::vector<std::vector<std::uint32_t>> localBuffers;
+  std::vector<std::uint32_t> localCounts;
+  auto& buffers = lock.owns_lock() ? mChunkBuffers : localBuffers;
+  auto& counts = lock.owns_lock() ? mCounts : localCounts;
+  counts.resize(count);
+
+  // Group the queries by cell, in curve order.
+  const bool self = queries == mPoints && count == mCount;
+  std::vector<std::uint32_t> ownOrder, ownGroupStart;
+  std::vector<std::uint64_t> ownGroupKey;
+  const std::uint32_t* queryOrder;
+  const std::uint32_t* groupStart;
+  const std::uint64_t* groupKey;
+  std::size_t groups;
+  if (self) {
+    queryOrder = mOrder.data();
+    groupStart = mCellStart.data();
+    groupKey = mCellKey.data();
+    groups = mCellKey.size();
+  } else {
+    std::vector<std::uint64_t> keys(count), keyScratch;
+    std::vector<std::uint32_t> indexScratch;
+    ownOrder.resize(count);
+    std::iota(ownOrder.begin(), ownOrder.end(), 0u);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 8192), [&](const auto& range) {
+      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+        std::uint32_t c[3];
+        for (int a = 0; a < 3; ++a)
+          c[a] = clampCell(cellFloor((double(queries[i][a]) - mOrigin[a]) * mInvCellSize));
+        keys[i] = mortonEncode(c[0], c[1], c[2]);
+      }
+    });
+    radixSortPairs(keys, ownOrder, 63, keyScratch, indexScratch);
+    for (std::size_t s = 0; s < count; ++s)
+      if (s == 0 || keys[s] != keys[s - 1]) {
+        ownGroupStart.push_back(static_cast<std::uint32_t>(s));
+        ownGroupKey.push_back(keys[s]);
+      }
+    ownGroupStart.push_back(static_cast<std::uint32_t>(count));
+    queryOrder = ownOrder.data();
+    groupStart = ownGroupStart.data();
+    groupKey = ownGroupKey.data();
+    groups = ownGroupKey.size();
+  }
+
+  // Chunks of whole groups with about the same number of queries.
+  const std::size_t target = std::max<std::size_t>(512, count / 256);
+  std::vector<std::size_t> chunkGroup{0};
+  for (std::size_t g = 0; g < groups; ++g)
+    if (groupStart[g + 1] - groupStart[chunkGroup.back()] >= target || g + 1 == groups)
+      chunkGroup.push_back(g + 1);
+  const std::size_t chunks = chunkGroup.size() - 1;
+  if (buffers.size() < chunks) buffers.resize(chunks);
+  std::vector<std::size_t> used(chunks, 0);
+
+  const GridQuery job{*this, queries, supportRadii, excludeSelf, self, queryOrder, groupStart, groupKey};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& range) {
+    for (std::size_t c = range.begin(); c != range.end(); ++c)
+      job.runChunk(chunkGroup[c], chunkGroup[c + 1], buffers[c], used[c], counts.data());
+  });
+
+  // Compressed rows in query order.
+  std::uint64_t total = 0;
+  for (std::size_t q = 0; q < count; ++q) {
+    out.offsets[q] = static_cast<std::uint32_t>(total);
+    total += counts[q];
+  }
+  if (total >= std::uint64_t(kNoIndex))
+    throw std::length_error("grid neighbour search: more than 2^32 neighbour pairs");
+  out.offsets[count] = static_cast<std::uint32_t>(total);
+  out.indices.resize(total);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& range) {
+    for (std::size_t c = range.begin(); c != range.end(); ++c) {
+      const std::uint32_t first = groupStart[chunkGroup[c]], last = groupStart[chunkGroup[c + 1]];
+      const std::uint32_t* source = buffers[c].data();
+      const bool contiguous = queryOrder[last - 1] - queryOrder[first] == last - 1 - first &&
+                              std::is_sorted(queryOrder + first, queryOrder + last);
+      if (contiguous) {
+        if (used[c]) std::memcpy(out.indices.data() + out.offsets[queryOrder[first]], source,
+                                 used[c] * sizeof(std::uint32_t));
+        continue;
+      }
+      for (std::uint32_t s = first; s < last; ++s) {
+        const std::uint32_t q = queryOrder[s];
+        if (counts[q]) std::memcpy(out.indices.data() + out.offsets[q], source,
+                                   counts[q] * sizeof(std::uint32_t));
+        source += counts[q];
+      }
+    }
+  });
+}
+
+} // namespace cascade::search

@@ -1,0 +1,100 @@
+/// @file UniformGridSearch.h
+/// @brief Fixed-radius neighbour search on a uniform grid of cells of edge the
+///        support radius, the cells ordered along a Z-order (Morton) curve:
+///        the CompactNSearch approach (Band, Gissler & Teschner 2017; cell
+///        lists of Hockney & Eastwood / Monaghan 1985, the "linked list" of
+///        SEED section 2.1).
+///
+/// build() keys every point by the Morton code of its cell, sorts the points
+/// by key (parallel radix sort) and keeps a copy of their positions in that
+/// order, so that the points of a cell and of its neighbour cells sit together
+/// in memory. A hash table maps occupied cells to their range of points.
+/// When the points moved little since the last build, only the points whose
+/// cell changed are sorted again and merged into the kept order (incremental
+/// rebuild); cells and neighbour sets are those of a full rebuild (only the
+/// order of the points within a cell may differ).
+///
+/// query() walks the queries cell by cell: the 27 cells around a query's cell
+/// are looked up once per cell, then every point of them is tested with
+/// squaredDistance() (the exact relation of NeighborSearch.h, so the sets equal
+/// brute force). Queries may be another point set (fluid against boundary
+/// particles) and may have their own radius (gather form); a radius larger
+/// than the build radius is allowed (slower: more cells are visited).
+///
+/// The cell edge is the build radius enlarged by 2^-10 so that rounding can
+/// never put a neighbour outside the 27 cells; each query also bounds its
+/// cell range conservatively, so no neighbour is ever missed.
+#pragma once
+
+#include "libsph/NeighborSearch.h"
+
+#include <cstdint>
+#include <mutex>
+#include <vector>
+
+namespace cascade::search {
+
+class UniformGridSearch final : public NeighborSearch {
+public:
+  std::string name() const override { return "grid"; }
+  void build(const Vec3r* points, std::size_t count, Real maxSupportRadius) override;
+  /// Not reentrant for concurrent calls on the same object (it reuses scratch memory).
+  void query(const Vec3r* queries, std::size_t count, const Real* supportRadii, bool excludeSelf,
+             NeighborLists& out) const override;
+
+  /// The Z-order of the last build: order[k] is the index of the point at
+  /// place k along the curve. Particles::permute(zOrder()) sorts particles so
+  /// that later searches (and every solver pass) touch memory in order.
+  std::vector<std::size_t> zOrder() const;
+
+  /// Allows (default) or forbids the incremental rebuild (for benchmarks).
+  void setIncrementalBuild(bool enabled) { mIncremental = enabled; }
+  /// Whether the last build() reused the previous order (incremental rebuild).
+  bool lastBuildWasIncremental() const { return mLastIncremental; }
+  /// Points whose cell changed in the last incremental build.
+  std::size_t lastBuildMovedCount() const { return mLastMoved; }
+
+  /// Number of occupied cells of the last build.
+  std::size_t cellCount() const { return mCellStart.empty() ? 0 : mCellStart.size() - 1; }
+  Real cellSize() const { return static_cast<Real>(mCellSize); }
+
+private:
+  struct Frame;
+  void computeFrame(const Vec3r* points, std::size_t count, Real maxSupportRadius);
+  void sortPoints(const Vec3r* points, std::size_t count, bool sameFrame);
+  void buildCells();
+  std::int64_t findCell(std::uint64_t key) const;
+
+  friend struct GridQuery;
+
+  const Vec3r* mPoints = nullptr;
+  std::size_t mCount = 0;
+  Real mRadius = 0;
+
+  // Frame: cell (i, j, k) of point p is floor((p - origin) / cellSize), clamped to [0, 2^21).
+  double mOrigin[3] = {0, 0, 0};
+  double mCellSize = 1, mInvCellSize = 1;
+  std::uint32_t mMaxCell[3] = {0, 0, 0};  ///< largest occupied cell coordinate per axis
+
+  std::vector<std::uint64_t> mKeys;    ///< Morton key per place, ascending
+  std::vector<std::uint32_t> mOrder;   ///< point index per place
+  std::vector<Real> mX, mY, mZ;        ///< positions per place (padded)
+  std::vector<std::uint32_t> mCellStart;  ///< first place of each occupied cell, plus the end
+  std::vector<std::uint64_t> mCellKey;    ///< Morton key of each occupied cell
+  std::vector<std::uint32_t> mHashSlots;  ///< open addressing: cell index + 1, 0 empty
+  std::uint64_t mHashMask = 0;
+
+  bool mIncremental = true;
+  bool mLastIncremental = false;
+  std::size_t mLastMoved = 0;
+  bool mHaveFrame = false;
+
+  // Scratch reused between builds and queries.
+  std::vector<std::uint64_t> mKeyScratch, mKeyScratch2;
+  std::vector<std::uint32_t> mIndexScratch, mIndexScratch2;
+  mutable std::mutex mScratchMutex;
+  mutable std::vector<std::vector<std::uint32_t>> mChunkBuffers;
+  mutable std::vector<std::uint32_t> mCounts;
+};
+
+} // namespace cascade::search

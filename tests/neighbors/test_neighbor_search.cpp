@@ -1,0 +1,290 @@
+// Every search method returns exactly the neighbour sets of brute force
+// (NeighborSearch.h: |q - p|^2 <= r^2 by squaredDistance(), inclusive).
+#include "libsph/NeighborSearch.h"
+#include "libsph/Particles.h"
+#include "libsph/search/MortonCode.h"
+#include "libsph/search/UniformGridSearch.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <random>
+#include <set>
+
+using namespace cascade;
+
+namespace {
+
+using Sets = std::vector<std::vector<std::uint32_t>>;
+
+Sets toSets(const NeighborLists& lists) {
+  Sets sets(lists.size());
+  for (std::size_t q = 0; q < lists.size(); ++q) {
+    sets[q].assign(lists.begin(q), lists.end(q));
+    std::sort(sets[q].begin(), sets[q].end());
+  }
+  return sets;
+}
+
+Sets bruteSets(const std::vector<Vec3r>& points, const std::vector<Vec3r>& queries, Real radius,
+               const std::vector<Real>* radii, bool excludeSelf) {
+  BruteForceSearch brute;
+  NeighborLists lists;
+  brute.build(points.data(), points.size(), radius);
+  brute.query(queries.data(), queries.size(), radii ? radii->data() : nullptr, excludeSelf, lists);
+  return toSets(lists);
+}
+
+/// Compares a method against brute force, list by list, and checks the CSR shape.
+void expectSameAsBrute(const std::string& method, const std::vector<Vec3r>& points,
+                       const std::vector<Vec3r>* otherQueries, Real radius,
+                       const std::vector<Real>* radii = nullptr, bool excludeSelf = true) {
+  const std::vector<Vec3r>& queries = otherQueries ? *otherQueries : points;
+  const Sets expected = bruteSets(points, queries, radius, radii, otherQueries ? false : excludeSelf);
+  auto search = makeNeighborSearch(method);
+  NeighborLists lists;
+  search->build(points.data(), points.size(), radius);
+  search->query(queries.data(), queries.size(), radii ? radii->data() : nullptr,
+                otherQueries ? false : excludeSelf, lists);
+  ASSERT_EQ(lists.offsets.size(), queries.size() + 1);
+  ASSERT_EQ(lists.offsets.front(), 0u);
+  ASSERT_EQ(lists.offsets.back(), lists.indices.size());
+  const Sets got = toSets(lists);
+  std::size_t total = 0;
+  for (std::size_t q = 0; q < queries.size(); ++q) {
+    total += expected[q].size();
+    ASSERT_EQ(got[q], expected[q]) << method << ": query " << q << " at (" << queries[q].transpose()
+                                   << ")";
+    // No duplicates within a list.
+    ASSERT_TRUE(std::adjacent_find(got[q].begin(), got[q].end()) == got[q].end());
+  }
+  EXPECT_EQ(lists.totalCount(), total);
+}
+
+std::vector<Vec3r> uniformPoints(std::size_t n, Real extent, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<Real> u(0, extent);
+  std::vector<Vec3r> points(n);
+  for (auto& p : points) p = Vec3r(u(rng), u(rng), u(rng));
+  return points;
+}
+
+/// A dam-break block (jittered lattice) plus scattered droplets far and near.
+std::vector<Vec3r> damBreakWithDroplets(Real spacing, int nx, int ny, int nz, std::size_t droplets,
+                                        unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<Real> jitter(-0.05f * spacing, 0.05f * spacing);
+  std::vector<Vec3r> points;
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i)
+        points.emplace_back(i * spacing + jitter(rng), j * spacing + jitter(rng),
+                            k * spacing + jitter(rng));
+  std::uniform_real_distribution<Real> spread(-2 * nx * spacing, 4 * nx * spacing);
+  for (std::size_t d = 0; d < droplets; ++d) {
+    Vec3r center(spread(rng), spread(rng), std::abs(spread(rng)));
+    const int blob = 1 + int(d % 5);
+    for (int b = 0; b < blob; ++b)
+      points.push_back(center + Vec3r(jitter(rng), jitter(rng), jitter(rng)) * 10);
+  }
+  return points;
+}
+
+class SearchMethod : public ::testing::TestWithParam<std::string> {};
+
+} // namespace
+
+TEST(NeighborSearchRegistry, KnowsEveryMethod) {
+  const auto methods = neighborSearchMethods();
+  for (const char* name : {"brute", "grid"}) {
+    ASSERT_NE(std::find(methods.begin(), methods.end(), name), methods.end()) << name;
+    EXPECT_EQ(makeNeighborSearch(name)->name(), name);
+  }
+  EXPECT_THROW(makeNeighborSearch("kd-tree"), std::invalid_argument);
+}
+
+TEST_P(SearchMethod, UniformRandomPoints) {
+  const auto points = uniformPoints(4000, 1.0f, 1);
+  expectSameAsBrute(GetParam(), points, nullptr, 0.12f);  // ~29 neighbours
+  expectSameAsBrute(GetParam(), points, nullptr, 0.12f, nullptr, false);
+}
+
+TEST_P(SearchMethod, ClusteredDamBreakAndDroplets) {
+  const auto points = damBreakWithDroplets(0.01f, 16, 12, 14, 300, 2);
+  expectSameAsBrute(GetParam(), points, nullptr, 0.0203f);
+}
+
+TEST_P(SearchMethod, VariableSmoothingLengths) {
+  const auto points = damBreakWithDroplets(0.01f, 12, 12, 12, 100, 3);
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<Real> u(0.002f, 0.03f);
+  std::vector<Real> radii(points.size());
+  for (auto& r : radii) r = u(rng);
+  // Build radius is the largest query radius (the grid's contract) ...
+  expectSameAsBrute(GetParam(), points, nullptr, 0.03f, &radii);
+  // ... but a smaller build radius is also answered exactly.
+  expectSameAsBrute(GetParam(), points, nullptr, 0.01f, &radii);
+}
+
+TEST_P(SearchMethod, EmptyAndOneParticle) {
+  const std::vector<Vec3r> none;
+  const std::vector<Vec3r> one{Vec3r(0.5f, -2, 3)};
+  expectSameAsBrute(GetParam(), none, nullptr, 0.1f);
+  expectSameAsBrute(GetParam(), one, nullptr, 0.1f);
+  expectSameAsBrute(GetParam(), one, nullptr, 0.1f, nullptr, false);
+  expectSameAsBrute(GetParam(), none, &one, 0.1f);  // query against nothing
+  expectSameAsBrute(GetParam(), one, &none, 0.1f);  // no queries
+  const std::vector<Vec3r> twins{Vec3r(1, 1, 1), Vec3r(1, 1, 1)};
+  expectSameAsBrute(GetParam(), twins, nullptr, 0.0f);  // radius 0: coincident points only
+  expectSameAsBrute(GetParam(), twins, nullptr, 0.5f);
+}
+
+TEST_P(SearchMethod, ExactlyOnTheSupportRadiusAndOnCellBorders) {
+  // Lattice of spacing 1/4 with radius 1/2: many pairs at exactly 1/2 (axis
+  // neighbours two apart), all coordinates and squared distances exact in float.
+  std::vector<Vec3r> lattice;
+  for (int k = -4; k <= 4; ++k)
+    for (int j = -4; j <= 4; ++j)
+      for (int i = -4; i <= 4; ++i) lattice.emplace_back(0.25f * i, 0.25f * j, 0.25f * k);
+  // 3-4-5 triangles scaled by 1/8: distance exactly 0.625 from the centre.
+  lattice.emplace_back(0.375f, 0.5f, 0.0f);
+  lattice.emplace_back(0.0f, -0.375f, 0.5f);
+  expectSameAsBrute(GetParam(), lattice, nullptr, 0.5f);
+  expectSameAsBrute(GetParam(), lattice, nullptr, 0.625f);
+  expectSameAsBrute(GetParam(), lattice, nullptr, 0.25f);
+
+  // Points exactly on the grid's cell borders (multiples of its cell edge,
+  // exact in float) and on the far side of the support radius from them.
+  search::UniformGridSearch probe;
+  probe.build(lattice.data(), lattice.size(), 0.5f);
+  const Real cell = probe.cellSize();
+  std::vector<Vec3r> borders;
+  for (int k = -3; k <= 3; ++k)
+    for (int j = -3; j <= 3; ++j)
+      for (int i = -3; i <= 3; ++i) {
+        const Vec3r p(cell * i, cell * j, cell * k);
+        borders.push_back(p);
+        borders.push_back(p + Vec3r(0.5f, 0, 0));
+        borders.push_back(p + Vec3r(0, 0, -0.5f));
+      }
+  for (const Real radius : {0.5f, cell}) expectSameAsBrute(GetParam(), borders, nullptr, radius);
+}
+
+TEST_P(SearchMethod, QueriesAgainstAnotherPointSet) {
+  // Fluid particles (queries) against boundary particles on a floor and a wall,
+  // with queries also far outside the boundary's bounding box.
+  std::vector<Vec3r> boundary;
+  for (int j = 0; j < 40; ++j)
+    for (int i = 0; i < 40; ++i) {
+      boundary.emplace_back(i * 0.025f, j * 0.025f, 0.0f);
+      boundary.emplace_back(0.0f, i * 0.025f, j * 0.025f);
+    }
+  auto fluid = uniformPoints(3000, 1.0f, 5);
+  fluid.emplace_back(-5, -5, -5);
+  fluid.emplace_back(100, 0.5f, 0.5f);
+  fluid.emplace_back(0.5f, 0.5f, -0.04f);
+  expectSameAsBrute(GetParam(), boundary, &fluid, 0.05f);
+  std::vector<Real> radii(fluid.size());
+  for (std::size_t q = 0; q < fluid.size(); ++q) radii[q] = 0.01f + 0.04f * Real(q % 7) / 6;
+  expectSameAsBrute(GetParam(), boundary, &fluid, 0.05f, &radii);
+}
+
+TEST_P(SearchMethod, RadiusLargerThanBuildRadius) {
+  const auto points = uniformPoints(1500, 1.0f, 6);
+  std::vector<Real> radii(points.size(), 0.2f);
+  radii[0] = 3.0f;  // everything
+  expectSameAsBrute(GetParam(), points, nullptr, 0.05f, &radii);
+}
+
+TEST_P(SearchMethod, RepeatedBuildsAfterSmallMovesAndReordering) {
+  auto points = damBreakWithDroplets(0.01f, 14, 10, 10, 50, 7);
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<Real> step(-0.002f, 0.002f);
+  auto search = makeNeighborSearch(GetParam());
+  for (int frame = 0; frame < 4; ++frame) {
+    NeighborLists lists;
+    search->findNeighbors(points.data(), points.size(), 0.0203f, lists);
+    ASSERT_EQ(toSets(lists), bruteSets(points, points, 0.0203f, nullptr, true)) << "frame " << frame;
+    for (auto& p : points) p += Vec3r(step(rng), step(rng), step(rng));
+    if (frame == 1) std::reverse(points.begin(), points.end());
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Methods, SearchMethod, ::testing::Values("grid"),
+                         [](const auto& info) { return info.param; });
+
+TEST(UniformGridSearch, IncrementalRebuildMatchesFullRebuild) {
+  auto points = damBreakWithDroplets(0.01f, 20, 20, 20, 0, 9);
+  search::UniformGridSearch incremental, full;
+  full.setIncrementalBuild(false);
+  incremental.build(points.data(), points.size(), 0.0203f);
+  // The solver's usage: reorder the particles along the curve, then step.
+  Particles particles;
+  for (std::size_t i = 0; i < points.size(); ++i) particles.add(points[i], Vec3r::Zero(), ParticleId(i));
+  particles.permute(incremental.zOrder());
+  std::mt19937 rng(10);
+  std::uniform_real_distribution<Real> step(-0.0002f, 0.0002f);
+  for (auto& p : particles.position) p += Vec3r(step(rng), step(rng), step(rng));
+  incremental.build(particles.position.data(), particles.size(), 0.0203f);
+  full.build(particles.position.data(), particles.size(), 0.0203f);
+  EXPECT_TRUE(incremental.lastBuildWasIncremental());
+  EXPECT_GT(incremental.lastBuildMovedCount(), 0u);
+  EXPECT_LT(incremental.lastBuildMovedCount(), particles.size() / 4);
+  // Same cell at every place along the curve (the order within a cell may differ).
+  const auto incrementalOrder = incremental.zOrder(), fullOrder = full.zOrder();
+  ASSERT_EQ(incrementalOrder.size(), fullOrder.size());
+  const Real cell = full.cellSize();
+  auto cellOf = [&](std::size_t index) {
+    const Vec3r& p = particles.position[index];
+    return std::array<long, 3>{long(std::floor(p.x() / cell)), long(std::floor(p.y() / cell)),
+                               long(std::floor(p.z() / cell))};
+  };
+  for (std::size_t k = 0; k < fullOrder.size(); ++k)
+    ASSERT_EQ(cellOf(incrementalOrder[k]), cellOf(fullOrder[k])) << k;
+  NeighborLists a, b;
+  incremental.query(particles.position.data(), particles.size(), nullptr, true, a);
+  full.query(particles.position.data(), particles.size(), nullptr, true, b);
+  EXPECT_EQ(a.offsets, b.offsets);
+  EXPECT_EQ(toSets(a), toSets(b));
+}
+
+TEST(UniformGridSearch, ZOrderIsAPermutationSortedAlongTheCurve) {
+  const auto points = uniformPoints(5000, 2.0f, 11);
+  search::UniformGridSearch grid;
+  grid.build(points.data(), points.size(), 0.1f);
+  const auto order = grid.zOrder();
+  ASSERT_EQ(order.size(), points.size());
+  std::vector<char> seen(points.size(), 0);
+  for (std::size_t index : order) {
+    ASSERT_LT(index, points.size());
+    ASSERT_FALSE(seen[index]);
+    seen[index] = 1;
+  }
+  // Cell keys ascend along the order.
+  const Real cell = grid.cellSize();
+  auto key = [&](const Vec3r& p) {
+    return search::mortonEncode(std::uint32_t(std::floor(p.x() / cell)), std::uint32_t(std::floor(p.y() / cell)),
+                                std::uint32_t(std::floor(p.z() / cell)));
+  };
+  for (std::size_t k = 1; k < order.size(); ++k)
+    ASSERT_LE(key(points[order[k - 1]]), key(points[order[k]])) << k;
+}
+
+TEST(MortonCode, EncodeDecodeRoundTrip) {
+  EXPECT_EQ(search::mortonEncode(1, 0, 0), 1u);
+  EXPECT_EQ(search::mortonEncode(0, 1, 0), 2u);
+  EXPECT_EQ(search::mortonEncode(0, 0, 1), 4u);
+  EXPECT_EQ(search::mortonEncode(3, 0, 0), 9u);
+  std::mt19937 rng(12);
+  for (int t = 0; t < 1000; ++t) {
+    const std::uint32_t x = rng() & search::kMortonMaxCoord, y = rng() & search::kMortonMaxCoord,
+                        z = rng() & search::kMortonMaxCoord;
+    std::uint32_t a, b, c;
+    search::mortonDecode(search::mortonEncode(x, y, z), a, b, c);
+    ASSERT_EQ(a, x);
+    ASSERT_EQ(b, y);
+    ASSERT_EQ(c, z);
+  }
+}
