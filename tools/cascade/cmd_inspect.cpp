@@ -1,13 +1,139 @@
+// `cascade inspect FILE` (CONTRACT.md): what a particle cache, VDB level set
+// or OBJ mesh holds; for a particle cache also a checksum over positions and
+// velocities in id order (libsph/io/ParticleCache.h).
 #include "Commands.h"
 
 #include "libsph/Errors.h"
+#include "libsph/io/ParticleCache.h"
+#include "libsph/io/TriangleMesh.h"
+
+#include <openvdb/openvdb.h>
+#include <openvdb/points/PointDataGrid.h>
+
+#include <cinttypes>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
 
 namespace cascade::cli {
 
+namespace fs = std::filesystem;
+
+namespace {
+
+void printBounds(const char* label, const Vec3d& lo, const Vec3d& hi) {
+  std::printf("%s[%.6g, %.6g, %.6g] - [%.6g, %.6g, %.6g]\n", label, lo.x(), lo.y(), lo.z(), hi.x(), hi.y(),
+              hi.z());
+}
+
+void inspectParticles(const fs::path& path) {
+  const ParticleFrame frame = readParticleFrame(path);
+  std::printf("file: %s\nkind: particle cache\n", path.string().c_str());
+  std::printf("count: %zu\n", frame.size());
+  std::string attributes = "P";
+  if (!frame.velocity.empty()) attributes += ", v";
+  if (!frame.id.empty()) attributes += ", id";
+  if (!frame.density.empty()) attributes += ", density";
+  if (!frame.pressure.empty()) attributes += ", pressure";
+  std::printf("attributes: %s\n", attributes.c_str());
+  if (!frame.position.empty()) {
+    Vec3d lo = Vec3d::Constant(1e300), hi = Vec3d::Constant(-1e300);
+    for (const Vec3r& p : frame.position) {
+      lo = lo.cwiseMin(p.cast<double>());
+      hi = hi.cwiseMax(p.cast<double>());
+    }
+    printBounds("bounds: ", lo, hi);
+  }
+  std::printf("time: %.9g s\n", frame.time);
+  if (frame.spacing > 0) std::printf("spacing: %.6g m\n", double(frame.spacing));
+  if (!frame.density.empty()) {
+    double sum = 0, low = 1e300, high = -1e300;
+    for (Real d : frame.density) sum += d, low = std::min(low, double(d)), high = std::max(high, double(d));
+    std::printf("density: min %.6g, mean %.6g, max %.6g kg/m^3\n", low, sum / double(frame.density.size()), high);
+  }
+  if (!frame.velocity.empty()) {
+    double top = 0;
+    for (const Vec3r& v : frame.velocity) top = std::max(top, double(v.norm()));
+    std::printf("max speed: %.6g m/s\n", top);
+  }
+  for (const auto& [key, value] : frame.metadata) std::printf("meta %s: %s\n", key.c_str(), value.c_str());
+  std::printf("checksum: %016" PRIx64 "\n", particleChecksum(frame));
+}
+
+void inspectVolume(const fs::path& path, openvdb::GridPtrVecPtr grids) {
+  std::printf("file: %s\nkind: OpenVDB volume\ngrids: %zu\n", path.string().c_str(), grids->size());
+  for (const openvdb::GridBase::Ptr& grid : *grids) {
+    std::string gridClass = openvdb::GridBase::gridClassToString(grid->getGridClass());
+    std::printf("grid \"%s\": type %s, class %s\n", grid->getName().c_str(), grid->valueType().c_str(),
+                gridClass.c_str());
+    const openvdb::Vec3d voxel = grid->voxelSize();
+    std::printf("  voxel size: %.6g", voxel.x());
+    if (voxel.y() != voxel.x() || voxel.z() != voxel.x()) std::printf(" %.6g %.6g", voxel.y(), voxel.z());
+    std::printf(" m\n  active voxels: %" PRIu64 "\n", static_cast<std::uint64_t>(grid->activeVoxelCount()));
+    const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
+    if (!box.empty()) {
+      const openvdb::Vec3d lo = grid->indexToWorld(box.min().asVec3d() - openvdb::Vec3d(0.5));
+      const openvdb::Vec3d hi = grid->indexToWorld(box.max().asVec3d() + openvdb::Vec3d(0.5));
+      printBounds("  bounds: ", Vec3d(lo.x(), lo.y(), lo.z()), Vec3d(hi.x(), hi.y(), hi.z()));
+    }
+    if (grid->getGridClass() == openvdb::GRID_LEVEL_SET) {
+      if (auto floatGrid = openvdb::GridBase::grid<openvdb::FloatGrid>(grid))
+        std::printf("  background (half band width): %.6g m\n", double(floatGrid->background()));
+    }
+  }
+}
+
+void inspectVdb(const fs::path& path) {
+  openvdb::initialize();
+  openvdb::GridPtrVecPtr grids;
+  try {
+    openvdb::io::File file(path.string());
+    file.open();
+    grids = file.getGrids();
+    file.close();
+  } catch (const std::exception& error) {
+    throw InputError(path.string() + ": not a readable VDB file (" + error.what() + ")");
+  }
+  for (const openvdb::GridBase::Ptr& grid : *grids)
+    if (grid->isType<openvdb::points::PointDataGrid>()) return inspectParticles(path);
+  inspectVolume(path, grids);
+}
+
+void inspectObj(const fs::path& path) {
+  const TriangleMesh mesh = readObj(path);
+  std::printf("file: %s\nkind: OBJ mesh\n", path.string().c_str());
+  std::printf("vertices: %zu\ntriangles: %zu\n", mesh.vertices.size(), mesh.triangles.size());
+  if (!mesh.vertices.empty()) {
+    Vec3d lo = Vec3d::Constant(1e300), hi = Vec3d::Constant(-1e300);
+    for (const auto& v : mesh.vertices) {
+      lo = lo.cwiseMin(v.cast<double>());
+      hi = hi.cwiseMax(v.cast<double>());
+    }
+    printBounds("bounds: ", lo, hi);
+  }
+  std::printf("normals: %s\n", mesh.normals.empty() ? "no" : "yes");
+  std::printf("groups: %zu\n", mesh.groups.size());
+  for (const TriangleMesh::Group& group : mesh.groups)
+    std::printf("  group \"%s\": %zu triangles\n", group.name.c_str(), group.end - group.begin);
+}
+
+} // namespace
+
 void addInspectCommand(CLI::App& app) {
-  CLI::App* command = app.add_subcommand("inspect", "inspect (not implemented yet: issue #4)");
-  command->allow_extras();
-  command->callback([] { throw NotImplementedError("inspect: not implemented yet (issue #4)"); });
+  CLI::App* command = app.add_subcommand("inspect", "show what a particle cache, VDB or OBJ file holds");
+  auto file = std::make_shared<std::string>();
+  command->add_option("file", *file, "particles.NNNN.vdb | .ply | surface.NNNN.vdb | .obj")->required();
+  command->callback([file] {
+    const fs::path path(*file);
+    std::error_code error;
+    if (!fs::is_regular_file(path, error)) throw InputError(path.string() + ": file not found");
+    const std::string extension = path.extension().string();
+    if (extension == ".vdb") inspectVdb(path);
+    else if (extension == ".ply") inspectParticles(path);
+    else if (extension == ".obj") inspectObj(path);
+    else throw InputError(path.string() + ": unknown file type (expected .vdb, .ply or .obj)");
+  });
 }
 
 } // namespace cascade::cli

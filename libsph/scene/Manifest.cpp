@@ -1,0 +1,95 @@
+#include "libsph/scene/Manifest.h"
+
+#include "libsph/io/AtomicFile.h"
+#include "libsph/scene/SceneJson.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <regex>
+#include <vector>
+
+namespace cascade::scene {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::uint64_t fnv1a(const void* data, std::size_t size, std::uint64_t hash) {
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < size; ++i) {
+    hash ^= bytes[i];
+    hash *= 0x100000001b3ull;
+  }
+  return hash;
+}
+
+std::string hexHash(std::uint64_t hash) {
+  char buffer[17];
+  std::snprintf(buffer, sizeof buffer, "%016llx", static_cast<unsigned long long>(hash));
+  return buffer;
+}
+
+std::string sceneInputHash(const Scene& scene) {
+  const std::string text = sceneToJson(scene).dump();
+  std::uint64_t hash = fnv1a(text.data(), text.size());
+  for (const Obstacle& obstacle : scene.boundaries.obstacles) {
+    std::ifstream in(obstacle.mesh, std::ios::binary);
+    std::vector<char> buffer(1 << 16);
+    while (in) {
+      in.read(buffer.data(), std::streamsize(buffer.size()));
+      hash = fnv1a(buffer.data(), std::size_t(in.gcount()), hash);
+    }
+  }
+  return hexHash(hash);
+}
+
+std::string directoryHash(const fs::path& dir, const std::string& prefix, const std::string& extension) {
+  std::vector<std::string> entries;
+  std::error_code error;
+  if (fs::is_directory(dir, error)) {
+    const std::regex pattern("^" + prefix + R"(\..*\.)" + extension + "$");
+    for (const auto& entry : fs::directory_iterator(dir, error)) {
+      const std::string name = entry.path().filename().string();
+      if (!std::regex_match(name, pattern)) continue;
+      const auto size = fs::file_size(entry.path(), error);
+      const auto time = fs::last_write_time(entry.path(), error).time_since_epoch().count();
+      entries.push_back(name + ":" + std::to_string(size) + ":" + std::to_string(time));
+    }
+  }
+  std::sort(entries.begin(), entries.end());
+  std::uint64_t hash = fnv1a("", 0);
+  for (const std::string& entry : entries) hash = fnv1a(entry.data(), entry.size() + 1, hash);
+  return hexHash(hash);
+}
+
+json readManifest(const fs::path& path) {
+  json manifest;
+  std::ifstream in(path);
+  if (in) {
+    try {
+      in >> manifest;
+    } catch (const json::exception&) {
+      manifest = json();
+    }
+  }
+  if (!manifest.is_object()) manifest = json::object();
+  if (!manifest.contains("stages") || !manifest["stages"].is_object()) manifest["stages"] = json::object();
+  return manifest;
+}
+
+void recordStage(const fs::path& path, const std::string& sceneName, const std::string& stage,
+                 const json& record) {
+  json manifest = readManifest(path);
+  manifest["scene"] = sceneName;
+  manifest["stages"][stage] = record;
+  writeTextAtomically(path, manifest.dump(2) + "\n");
+}
+
+bool stageIsCurrent(const json& manifest, const std::string& stage, const std::string& inputHash) {
+  const auto stages = manifest.find("stages");
+  if (stages == manifest.end() || !stages->contains(stage)) return false;
+  const json& record = (*stages)[stage];
+  return record.value("done", false) && record.value("input_hash", std::string()) == inputHash;
+}
+
+} // namespace cascade::scene

@@ -1,0 +1,48 @@
+/// @file Manifest.h
+/// @brief OUT/manifest.json (CONTRACT.md: "stages done, their input hashes,
+///        timings") and the input hashes `cascade run` uses to skip a stage
+///        whose inputs did not change.
+///
+/// Layout: {"scene": NAME, "stages": {"bake": {"done": true, "input_hash":
+/// "...", "seconds": 12.5, "frames": 60, ...}, "surface": {...}, "render": {...}}}.
+/// Every update rewrites the file atomically (read, modify, rename).
+#pragma once
+
+#include "libsph/scene/Scene.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+namespace cascade::scene {
+
+/// 64-bit FNV-1a over bytes (continuing from `hash`).
+std::uint64_t fnv1a(const void* data, std::size_t size, std::uint64_t hash = 0xcbf29ce484222325ull);
+
+/// 16 hex digits.
+std::string hexHash(std::uint64_t hash);
+
+/// Hash of everything a bake reads: the resolved scene JSON and the bytes of
+/// every mesh file it names.
+std::string sceneInputHash(const Scene& scene);
+
+/// Hash of the files in a directory whose names match PREFIX.*.EXT (names,
+/// sizes and modification times; cheap, for stage-skip decisions).
+std::string directoryHash(const std::filesystem::path& dir, const std::string& prefix,
+                          const std::string& extension);
+
+/// The manifest at `path`, or an empty one ({"stages": {}}) if it does not
+/// exist or cannot be parsed.
+nlohmann::json readManifest(const std::filesystem::path& path);
+
+/// Sets manifest["stages"][stage] = record (and "scene"), atomically.
+void recordStage(const std::filesystem::path& path, const std::string& sceneName,
+                 const std::string& stage, const nlohmann::json& record);
+
+/// True if the manifest says `stage` is done with this input hash.
+bool stageIsCurrent(const nlohmann::json& manifest, const std::string& stage,
+                    const std::string& inputHash);
+
+} // namespace cascade::scene

@@ -1,0 +1,177 @@
+/// @file Scene.h
+/// @brief The scene model of CONTRACT.md ("Scenes: JSON, SI units, z up"):
+///        fluid (blocks, emitters), solver settings, boundaries, output,
+///        camera, lights and probes, as plain data with every default filled in.
+///
+/// The JSON form, its validation and the `--set` overrides live in
+/// SceneJson.h; this header only holds the values. Field names follow the
+/// JSON keys (snake_case in JSON, camelCase here). All lengths in metres,
+/// times in seconds, angles in degrees.
+#pragma once
+
+#include "libsph/Types.h"
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace cascade::scene {
+
+using Vec3 = std::array<double, 3>;
+
+/// An axis-aligned box [min, max].
+struct Box {
+  Vec3 min{0, 0, 0};
+  Vec3 max{0, 0, 0};
+};
+
+/// A block of fluid on a regular lattice of the fluid spacing, at a start velocity.
+struct FluidBlock {
+  Box box;
+  Vec3 velocity{0, 0, 0};
+};
+
+/// A nozzle: a disk (radius) or rectangle (size = [width, height]) at
+/// `center`, facing `normal`, that emits layers of particles on the fluid
+/// lattice at `speed` along the normal between `start` and `end`, up to
+/// `maxCount` particles (0: no limit). `rate` (particles/s) is derived from
+/// speed * area / spacing^3 when 0.
+struct Emitter {
+  std::string name;
+  std::string shape = "disk";  ///< "disk" | "rectangle"
+  Vec3 center{0, 0, 0};
+  Vec3 normal{1, 0, 0};
+  Vec3 up{0, 0, 1};            ///< rectangle: direction of its height (projected onto the nozzle plane)
+  double radius = 0.05;        ///< disk
+  std::array<double, 2> size{0.1, 0.1};  ///< rectangle: width, height
+  double speed = 1.0;          ///< m/s along normal
+  double rate = 0;             ///< particles per second; 0 = speed * area / spacing^3
+  double start = 0;            ///< s
+  double end = 1e30;           ///< s
+  std::int64_t maxCount = 0;   ///< 0: no limit
+};
+
+struct Fluid {
+  double spacing = 0.02;       ///< initial particle spacing, m
+  double density = 1000;       ///< rest density rho_0, kg/m^3
+  double viscosity = 0.0;      ///< dynamic viscosity mu of SEED (6), Pa s; 0 skips the pass
+  std::vector<FluidBlock> blocks;
+  std::vector<Emitter> emitters;
+};
+
+/// Solver settings; mapped onto libsph/solver/SolverSettings.h (the same
+/// meaning and defaults; 0 for a derived value means "derive it").
+struct Solver {
+  std::string type = "wcsph";        ///< see solverTypes() in SceneJson.h
+  std::string eos = "linear";        ///< "linear" SEED (10) | "tait"
+  double stiffness = 0;              ///< k of SEED (10), m^2/s^2; 0: (10 expected_speed)^2
+  double taitExponent = 7;
+  bool clampNegativePressure = true;
+  double artificialViscosity = 0.05; ///< Monaghan alpha; 0 = off
+  double expectedSpeed = 0;          ///< m/s; 0: derived (free fall height, emitter speeds)
+  double instabilitySpeedFactor = 20;
+  double densityTolerance = 0.0005;  ///< dfsph
+  double divergenceTolerance = 0.001;///< dfsph
+  std::int64_t maxIterations = 100;  ///< dfsph
+  double supportFactor = 2.0;        ///< support radius h = support_factor * spacing
+  double cfl = 0.4;
+  double dtMin = 1e-6;
+  double dtMax = 5e-3;
+  std::string neighborSearch = "grid";
+  std::int64_t reorderInterval = 25;
+  // Virtual boundary particles (SEED section 2.2)
+  bool repulsionParticles = true;    ///< type I
+  bool mirrorParticles = true;       ///< type II
+  double repulsion = 0;              ///< D of SEED (11), m^2/s^2; 0: expected_speed^2
+  double repulsionRadius = 0;        ///< r0 of SEED (11), m; 0: the fluid spacing
+  double sampleGap = 0.5;            ///< largest type I gap as a fraction of r0
+  std::string slip = "free";         ///< mirror velocity: "free" | "no"
+  double kappa = 1;                  ///< mirrors within kappa h of a wall
+};
+
+/// An infinite plane through `point` with the fluid on the side `normal` points to.
+struct Plane {
+  Vec3 point{0, 0, 0};
+  Vec3 normal{0, 0, 1};
+};
+
+/// A finite inclined slab: a box of size [length, width, thickness] centred at
+/// `center`, rotated by `angle` degrees about the axis `axis` (a ramp).
+/// Water runs on its top face.
+struct Slope {
+  std::string name;
+  Vec3 center{0, 0, 0};
+  std::array<double, 3> size{1, 1, 0.02};
+  Vec3 axis{0, 1, 0};
+  double angle = 0;
+};
+
+/// A mesh obstacle: file (absolute once resolved), transform applied as
+/// scale, then rotate (Euler XYZ degrees), then translate; simplified to
+/// `triangles` (0: as loaded).
+struct Obstacle {
+  std::string name;
+  std::string mesh;
+  Vec3 translate{0, 0, 0};
+  Vec3 rotate{0, 0, 0};
+  double scale = 1;
+  std::int64_t triangles = 0;
+};
+
+struct Boundaries {
+  std::optional<Box> tank;              ///< open-top box: floor and four walls
+  std::vector<Plane> planes;
+  std::vector<Slope> slopes;
+  std::vector<Obstacle> obstacles;
+  std::optional<Box> domain;            ///< particles leaving it are removed
+  std::vector<Box> kill;                ///< particles entering one are removed
+};
+
+struct Output {
+  double fps = 30;
+  double endTime = 2;
+  double probeRate = 100;               ///< probe samples per simulated second
+  int frameCount() const;               ///< frames 1..N at t = k / fps
+};
+
+struct Camera {
+  Vec3 position{2, -2, 1.5};
+  Vec3 target{0, 0, 0};
+  Vec3 up{0, 0, 1};
+  double fov = 45;                      ///< vertical, degrees
+};
+
+struct Light {
+  std::string type = "directional";     ///< "directional" | "point"
+  Vec3 direction{-0.3, 0.4, -1};        ///< directional: the way the light travels
+  Vec3 position{0, 0, 3};               ///< point
+  Vec3 color{1, 1, 1};
+  double intensity = 1;
+};
+
+/// A probe of CONTRACT.md. Fields unused by a type keep their defaults.
+struct Probe {
+  std::string name;
+  std::string type;                     ///< "height" | "pressure" | "force" | "front"
+  Vec3 at{0, 0, 0};                     ///< height: x, y (z ignored); pressure: x, y, z
+  std::string obstacle;                 ///< force
+  Vec3 direction{1, 0, 0};              ///< front
+};
+
+struct Scene {
+  std::string name = "scene";
+  std::string description;
+  std::string size = "production";      ///< the preset applied (see SceneJson.h)
+  Vec3 gravity{0, 0, -9.81};
+  Fluid fluid;
+  Solver solver;
+  Boundaries boundaries;
+  Output output;
+  Camera camera;
+  std::vector<Light> lights;
+  std::vector<Probe> probes;
+};
+
+} // namespace cascade::scene

@@ -1,0 +1,68 @@
+/// @file SceneJson.h
+/// @brief The JSON scene format (CONTRACT.md): parsing with validation,
+///        writing with every default filled in, size presets and `--set`.
+///
+/// Validation errors are InputError with one line naming the file and the
+/// JSON path of the bad value, e.g.
+///   scene.json: fluid.spacing: must be > 0 (got -1)
+///   scene.json: fluid.spacng: unknown key (did you mean 'spacing'?)
+///
+/// Loading a scene file (loadScene):
+///  1. read the JSON; a `--set size=NAME` replaces the top-level "size";
+///  2. if the file has "presets": {"seed": {"fluid.spacing": 0.02, ...}, ...},
+///     the entries of presets[size] (dotted paths, like --set) are applied and
+///     "presets" is dropped;
+///  3. parse and validate, filling every default (mesh paths resolved against
+///     the scene file's folder and made absolute; a missing file is an error);
+///  4. every other `--set PATH=VALUE` replaces the value at PATH of the
+///     default-filled scene (VALUE parsed as JSON, else taken as a string);
+///     a PATH that does not exist there is an error; then validate again.
+/// The result written by sceneToJson() parses back to the same scene
+/// (parse -> write -> parse is the identity).
+#pragma once
+
+#include "libsph/scene/Scene.h"
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace cascade::scene {
+
+/// The solver types a scene may name ("wcsph", "dfsph", ...); extend in SceneJson.cpp.
+const std::vector<std::string>& solverTypes();
+/// The neighbour search methods a scene may name (solver.neighbor_search).
+const std::vector<std::string>& neighborSearchNames();
+
+/// Parses a scene from JSON; `fileLabel` prefixes every error message and
+/// relative mesh paths are resolved against `baseDir`. Throws InputError.
+Scene parseScene(const nlohmann::json& json, const std::string& fileLabel,
+                 const std::filesystem::path& baseDir);
+
+/// The scene as JSON with every value present (the form of OUT/scene.json).
+nlohmann::json sceneToJson(const Scene& scene);
+
+/// Replaces the value at a dotted path ("fluid.blocks.0.min" or
+/// "fluid.blocks[0].min") of `json` by `value` (parsed as JSON, else a string).
+/// With mustExist, a path not present in `json` is an InputError naming
+/// `label` (e.g. "--set"); otherwise missing objects are created.
+void setJsonPath(nlohmann::json& json, const std::string& path, const std::string& value,
+                 const std::string& label, bool mustExist);
+void setJsonPath(nlohmann::json& json, const std::string& path, const nlohmann::json& value,
+                 const std::string& label, bool mustExist);
+
+/// Loads a scene file with its presets and `--set KEY=VALUE` overrides (see above).
+Scene loadScene(const std::filesystem::path& file, const std::vector<std::string>& overrides = {});
+
+/// Reads OUT/scene.json (a resolved scene) without presets or overrides.
+Scene readResolvedScene(const std::filesystem::path& file);
+
+/// Levenshtein edit distance (for "did you mean" suggestions).
+std::size_t editDistance(const std::string& a, const std::string& b);
+
+/// The candidate nearest to `word`, or "" if none is reasonably close.
+std::string nearestWord(const std::string& word, const std::vector<std::string>& candidates);
+
+} // namespace cascade::scene

@@ -1,0 +1,150 @@
+#include "libsph/scene/SceneSetup.h"
+
+#include "libsph/boundary/BoxBoundary.h"
+#include "libsph/boundary/MeshBoundary.h"
+#include "libsph/boundary/PlaneBoundary.h"
+#include "libsph/scene/FluidSources.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <ostream>
+
+namespace cascade::scene {
+
+namespace {
+Vec3r toVec(const Vec3& v) { return Vec3r(Real(v[0]), Real(v[1]), Real(v[2])); }
+
+Eigen::Matrix<Real, 3, 3> slopeRotation(const Slope& slope) {
+  const Eigen::Vector3d axis = Eigen::Vector3d(slope.axis[0], slope.axis[1], slope.axis[2]).normalized();
+  const double radians = slope.angle * M_PI / 180.0;
+  return Eigen::AngleAxisd(radians, axis).toRotationMatrix().cast<Real>();
+}
+
+/// Lowest z any boundary or fluid source reaches (for the free-fall speed).
+double lowestZ(const Scene& scene) {
+  double low = 1e30;
+  for (const FluidBlock& block : scene.fluid.blocks) low = std::min(low, block.box.min[2]);
+  for (const Emitter& emitter : scene.fluid.emitters) low = std::min(low, emitter.center[2]);
+  if (scene.boundaries.tank) low = std::min(low, scene.boundaries.tank->min[2]);
+  for (const Plane& plane : scene.boundaries.planes) low = std::min(low, plane.point[2]);
+  for (const Slope& slope : scene.boundaries.slopes) {
+    const double reach = 0.5 * std::sqrt(slope.size[0] * slope.size[0] + slope.size[1] * slope.size[1] +
+                                         slope.size[2] * slope.size[2]);
+    low = std::min(low, slope.center[2] - reach);
+  }
+  return low;
+}
+} // namespace
+
+SimulationSettings simulationSettings(const Scene& scene) {
+  SimulationSettings settings;
+  settings.fluid.spacing = Real(scene.fluid.spacing);
+  settings.fluid.restDensity = Real(scene.fluid.density);
+  settings.fluid.viscosity = Real(scene.fluid.viscosity);
+
+  const Solver& s = scene.solver;
+  SolverSettings& solver = settings.solver;
+  solver.type = s.type;
+  solver.supportRadiusFactor = Real(s.supportFactor);
+  solver.equationOfState = s.eos == "tait" ? EquationOfState::Tait : EquationOfState::Linear;
+  solver.taitExponent = Real(s.taitExponent);
+  solver.stiffness = Real(s.stiffness);
+  solver.clampNegativePressure = s.clampNegativePressure;
+  solver.artificialViscosity = Real(s.artificialViscosity);
+  solver.expectedSpeed = Real(s.expectedSpeed);
+  solver.instabilitySpeedFactor = Real(s.instabilitySpeedFactor);
+  solver.densityTolerance = Real(s.densityTolerance);
+  solver.divergenceTolerance = Real(s.divergenceTolerance);
+  solver.maxIterations = int(s.maxIterations);
+  solver.cflFactor = Real(s.cfl);
+  solver.minTimeStep = Real(s.dtMin);
+  solver.maxTimeStep = Real(s.dtMax);
+  solver.gravity = toVec(scene.gravity);
+  solver.neighborSearch = s.neighborSearch;
+  solver.reorderInterval = int(s.reorderInterval);
+
+  if (solver.expectedSpeed == 0 && !scene.fluid.emitters.empty()) {
+    // Emitted particles do not exist when the solver derives its constants:
+    // the fastest a particle can get is its launch speed plus the free fall
+    // from the highest source to the lowest point of the scene.
+    const double g = std::sqrt(scene.gravity[0] * scene.gravity[0] + scene.gravity[1] * scene.gravity[1] +
+                               scene.gravity[2] * scene.gravity[2]);
+    const double low = lowestZ(scene);
+    double fastest = 0;
+    for (const Emitter& e : scene.fluid.emitters) {
+      const double drop = std::max(0.0, e.center[2] - low);
+      fastest = std::max(fastest, std::sqrt(e.speed * e.speed + 2 * g * drop));
+    }
+    for (const FluidBlock& block : scene.fluid.blocks) {
+      const double drop = std::max(0.0, block.box.max[2] - low);
+      const Vec3r v = toVec(block.velocity);
+      fastest = std::max(fastest, std::sqrt(double(v.squaredNorm()) + 2 * g * drop));
+    }
+    solver.expectedSpeed = Real(fastest);
+  }
+
+  BoundarySettings& boundary = settings.boundary;
+  boundary.repulsionParticles = s.repulsionParticles;
+  boundary.mirrorParticles = s.mirrorParticles;
+  boundary.repulsionStrength = Real(s.repulsion);
+  boundary.repulsionRadius = Real(s.repulsionRadius);
+  boundary.sampleGap = Real(s.sampleGap);
+  boundary.slip = s.slip == "no" ? MirrorSlip::NoSlip : MirrorSlip::FreeSlip;
+  boundary.kappa = Real(s.kappa);
+
+  if (scene.boundaries.domain) {
+    settings.domain.enabled = true;
+    settings.domain.min = toVec(scene.boundaries.domain->min);
+    settings.domain.max = toVec(scene.boundaries.domain->max);
+  }
+  return settings;
+}
+
+void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* log) {
+  const Boundaries& b = scene.boundaries;
+  if (b.tank) {
+    BoundaryPtr tank = BoxBoundary::tank(toVec(b.tank->min), toVec(b.tank->max));
+    tank->setName("tank");
+    simulation.addBoundary(std::move(tank));
+  }
+  for (std::size_t i = 0; i < b.planes.size(); ++i) {
+    // Type I samples of an infinite plane cover the scene's extent around its point.
+    double extent = 1.0;
+    if (b.domain)
+      for (int k = 0; k < 3; ++k) extent = std::max(extent, b.domain->max[k] - b.domain->min[k]);
+    BoundaryPtr plane = PlaneBoundary::infinite(toVec(b.planes[i].point), toVec(b.planes[i].normal).normalized(),
+                                                Real(extent));
+    plane->setName("plane" + std::to_string(i + 1));
+    simulation.addBoundary(std::move(plane));
+  }
+  for (const Slope& slope : b.slopes) {
+    const Vec3r half(Real(0.5 * slope.size[0]), Real(0.5 * slope.size[1]), Real(0.5 * slope.size[2]));
+    BoundaryPtr solid = BoxBoundary::solid(toVec(slope.center), half, slopeRotation(slope));
+    solid->setName(slope.name);
+    simulation.addBoundary(std::move(solid));
+  }
+  for (const Obstacle& obstacle : b.obstacles) {
+    MeshObstacleOptions options;
+    options.transform.translation = toVec(obstacle.translate);
+    options.transform.rotation = Transform::rotationFromEulerDegrees(toVec(obstacle.rotate));
+    options.transform.scale = Real(obstacle.scale);
+    options.targetTriangles = std::size_t(obstacle.triangles);
+    auto mesh = MeshBoundary::load(obstacle.mesh, options, log);
+    mesh->setName(obstacle.name);
+    simulation.addBoundary(std::move(mesh));
+  }
+  for (const FluidBlock& block : scene.fluid.blocks) {
+    const Vec3r velocity = toVec(block.velocity);
+    for (const Vec3r& p : blockPositions(block, scene.fluid.spacing)) simulation.addParticle(p, velocity);
+  }
+}
+
+std::size_t initialParticleCount(const Scene& scene) {
+  std::size_t count = 0;
+  for (const FluidBlock& block : scene.fluid.blocks) count += blockPositions(block, scene.fluid.spacing).size();
+  return count;
+}
+
+} // namespace cascade::scene

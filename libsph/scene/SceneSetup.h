@@ -1,0 +1,33 @@
+/// @file SceneSetup.h
+/// @brief Maps a scene (Scene.h) onto the solver: SimulationSettings, the
+///        boundaries (tank, planes, slopes, mesh obstacles) and the initial
+///        fluid blocks. Solver, boundary and probe logic stay in libsph/solver,
+///        libsph/boundary and libsph/probes; this file only translates.
+///
+/// Only what the scene needs is created: no obstacle -> no mesh boundary, zero
+/// viscosity -> the solver skips its viscosity pass, no probe -> no probe work.
+#pragma once
+
+#include "libsph/scene/Scene.h"
+#include "libsph/solver/Simulation.h"
+#include "libsph/solver/SolverSettings.h"
+
+#include <iosfwd>
+
+namespace cascade::scene {
+
+/// The solver settings of a scene. When the scene has emitters and no
+/// expected speed, it is derived here from the emitter speeds and the free
+/// fall from the highest source (the solver only sees particles present at
+/// the start).
+SimulationSettings simulationSettings(const Scene& scene);
+
+/// Adds the scene's boundaries (in scene order: tank, planes, slopes,
+/// obstacles) and initial fluid blocks to `simulation`. Mesh loading and
+/// simplification are logged to `log` if not null.
+void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* log);
+
+/// The number of fluid particles the blocks hold at the start.
+std::size_t initialParticleCount(const Scene& scene);
+
+} // namespace cascade::scene

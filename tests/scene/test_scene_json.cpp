@@ -1,0 +1,156 @@
+// Scene format (issue 4): parse -> write -> parse identity, defaults, presets,
+// --set overrides and every kind of validation error.
+#include "libsph/Errors.h"
+#include "libsph/io/AtomicFile.h"
+#include "libsph/scene/SceneJson.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+using namespace cascade;
+using namespace cascade::scene;
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+const fs::path kScenes = fs::path(CASCADE_SOURCE_DIR) / "scenes";
+
+fs::path tempDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("cascade_scene_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+/// Writes `text` as a scene file and returns the message of the InputError
+/// loading it throws ("" if it loads).
+std::string loadError(const std::string& text, const std::vector<std::string>& sets = {}) {
+  const fs::path file = tempDir("error") / "scene.json";
+  writeTextAtomically(file, text);
+  try {
+    loadScene(file, sets);
+  } catch (const InputError& error) {
+    std::string message = error.what();
+    // Make the message independent of the temporary folder.
+    const std::string prefix = file.string();
+    if (message.rfind(prefix, 0) == 0) message = "scene.json" + message.substr(prefix.size());
+    return message;
+  }
+  return "";
+}
+
+const char* kMinimal = R"({"name": "t", "fluid": {"blocks": [{"min": [0,0,0], "max": [0.1,0.1,0.1]}]}})";
+} // namespace
+
+TEST(SceneJson, ShippedScenesRoundTrip) {
+  for (const char* name : {"bunny.json", "tower.json", "dambreak.json", "hydrostatic.json"}) {
+    for (const char* size : {"seed", "production"}) {
+      SCOPED_TRACE(std::string(name) + " " + size);
+      const Scene first = loadScene(kScenes / name, {std::string("size=") + size});
+      const json written = sceneToJson(first);
+      const fs::path file = tempDir("roundtrip") / "scene.json";
+      writeTextAtomically(file, written.dump(2));
+      const Scene second = readResolvedScene(file);
+      EXPECT_EQ(sceneToJson(second), written);
+      EXPECT_EQ(second.fluid.blocks.size(), first.fluid.blocks.size());
+      EXPECT_EQ(second.fluid.spacing, first.fluid.spacing);
+      EXPECT_EQ(second.boundaries.obstacles.size(), first.boundaries.obstacles.size());
+    }
+  }
+}
+
+TEST(SceneJson, DefaultsAreFilledAndWritten) {
+  const fs::path file = tempDir("defaults") / "scene.json";
+  writeTextAtomically(file, kMinimal);
+  const Scene scene = loadScene(file);
+  const json written = sceneToJson(scene);
+  EXPECT_EQ(written["solver"]["type"], "wcsph");
+  EXPECT_EQ(written["output"]["fps"], 30.0);
+  EXPECT_TRUE(written["camera"].contains("fov"));
+  EXPECT_EQ(written["lights"].size(), 2u);
+  EXPECT_EQ(written["fluid"]["blocks"][0]["velocity"], json::array({0.0, 0.0, 0.0}));
+  EXPECT_TRUE(written["boundaries"]["tank"].is_null());
+  // Exact doubles survive the text form.
+  EXPECT_EQ(written["gravity"][2].get<double>(), -9.81);
+}
+
+TEST(SceneJson, PresetsAndSetOverrides) {
+  const fs::path file = tempDir("presets") / "scene.json";
+  writeTextAtomically(file, R"({"name": "p", "size": "production",
+    "presets": {"seed": {"fluid.spacing": 0.05}, "production": {"fluid.spacing": 0.01}},
+    "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})");
+  EXPECT_EQ(loadScene(file).fluid.spacing, 0.01);
+  EXPECT_EQ(loadScene(file, {"size=seed"}).fluid.spacing, 0.05);
+  EXPECT_EQ(loadScene(file, {"size=seed"}).size, "seed");
+  // --set wins over the preset; values are JSON, else strings.
+  const Scene set = loadScene(file, {"size=seed", "fluid.spacing=0.02", "solver.eos=tait",
+                                     "fluid.blocks.0.velocity=[1,2,3]", "solver.slip=\"no\""});
+  EXPECT_EQ(set.fluid.spacing, 0.02);
+  EXPECT_EQ(set.solver.eos, "tait");
+  EXPECT_EQ(set.solver.slip, "no");
+  EXPECT_EQ(set.fluid.blocks[0].velocity[1], 2.0);
+  // Bracket form of an index, and setting a null optional with an object.
+  const Scene tank = loadScene(file, {"fluid.blocks[0].velocity=[0,0,-1]",
+                                      R"(boundaries.tank={"min":[-1,-1,-1],"max":[2,2,2]})"});
+  EXPECT_EQ(tank.fluid.blocks[0].velocity[2], -1.0);
+  ASSERT_TRUE(tank.boundaries.tank.has_value());
+  EXPECT_EQ(tank.boundaries.tank->max[0], 2.0);
+}
+
+TEST(SceneJson, UnknownKeySuggestsNearest) {
+  EXPECT_EQ(loadError(R"({"name": "t", "fluid": {"spacng": 0.01, "blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})"),
+            "scene.json: fluid.spacng: unknown key (did you mean 'spacing'?)");
+  EXPECT_EQ(loadError(R"({"name": "t", "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1], "velocty": [0,0,0]}]}})"),
+            "scene.json: fluid.blocks[0].velocty: unknown key (did you mean 'velocity'?)");
+  EXPECT_EQ(loadError(R"({"name": "t", "solvr": {}, "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})"),
+            "scene.json: solvr: unknown key (did you mean 'solver'?)");
+}
+
+TEST(SceneJson, WrongTypes) {
+  EXPECT_EQ(loadError(R"({"name": "t", "fluid": {"spacing": "fine", "blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})"),
+            "scene.json: fluid.spacing: must be a number (got \"fine\")");
+  EXPECT_EQ(loadError(R"({"name": "t", "fluid": {"blocks": [{"min": [0,0], "max": [1,1,1]}]}})"),
+            "scene.json: fluid.blocks[0].min: must be an array of 3 numbers (got [0,0])");
+  EXPECT_EQ(loadError(R"({"name": "t", "fluid": {"blocks": {"min": [0,0,0]}}})"),
+            "scene.json: fluid.blocks: must be an array (got {\"min\":[0,0,0]})");
+  EXPECT_EQ(loadError(R"({"name": "t", "solver": {"clamp_negative_pressure": 1}, "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})"),
+            "scene.json: solver.clamp_negative_pressure: must be true or false (got 1)");
+}
+
+TEST(SceneJson, OutOfRangeAndChoices) {
+  EXPECT_EQ(loadError(R"({"name": "t", "fluid": {"spacing": -1, "blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})"),
+            "scene.json: fluid.spacing: must be > 0 (got -1)");
+  EXPECT_EQ(loadError(R"({"name": "t", "solver": {"cfl": 3}, "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})"),
+            "scene.json: solver.cfl: must be in [0.001, 1] (got 3)");
+  EXPECT_EQ(loadError(R"({"name": "t", "solver": {"type": "wcsh"}, "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})"),
+            "scene.json: solver.type: must be one of wcsph, dfsph (got \"wcsh\") (did you mean 'wcsph'?)");
+  EXPECT_EQ(loadError(R"({"name": "t", "fluid": {"blocks": [{"min": [0,0,0], "max": [1,-1,1]}]}})"),
+            "scene.json: fluid.blocks[0].max: must exceed min in every axis");
+  EXPECT_EQ(loadError(R"({"name": "t", "fluid": {}})"), "scene.json: fluid: needs at least one block or emitter");
+  EXPECT_EQ(loadError(R"({"name": "t", "probes": [{"name": "F", "type": "force", "obstacle": "towr"}],
+                          "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})"),
+            "scene.json: probes[0].obstacle: no obstacle named \"towr\"");
+}
+
+TEST(SceneJson, SetErrors) {
+  EXPECT_EQ(loadError(kMinimal, {"fluid.spacingg=0.1"}),
+            "--set fluid.spacingg: unknown key 'fluid.spacingg' (did you mean 'fluid.spacing'?)");
+  EXPECT_EQ(loadError(kMinimal, {"fluid.blocks.3.min=[0,0,0]"}),
+            "--set fluid.blocks.3.min: fluid.blocks has 1 entries (index 3 out of range)");
+  EXPECT_EQ(loadError(kMinimal, {"fluid.spacing=-2"}), "scene.json: fluid.spacing: must be > 0 (got -2)");
+  EXPECT_EQ(loadError(kMinimal, {"fluid.spacing"}), "--set fluid.spacing: expected KEY=VALUE");
+}
+
+TEST(SceneJson, MissingAssetNamesThePath) {
+  const std::string message = loadError(R"({"name": "t", "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]},
+      "boundaries": {"obstacles": [{"name": "rock", "mesh": "assets/rock.obj"}]}})");
+  const fs::path lookedFor = (fs::temp_directory_path() / "cascade_scene_error" / "assets" / "rock.obj").lexically_normal();
+  EXPECT_EQ(message, "scene.json: boundaries.obstacles[0].mesh: mesh file not found: " + lookedFor.string());
+}
+
+TEST(SceneJson, BrokenJsonAndMissingFile) {
+  EXPECT_NE(loadError("{\"name\": \"t\",\n \"fluid\": {").find("scene.json: invalid JSON: parse error at line 2"),
+            std::string::npos);
+  EXPECT_THROW(loadScene("/nonexistent/scene.json"), InputError);
+}
