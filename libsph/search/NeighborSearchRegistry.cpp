@@ -1,17 +1,19 @@
 // makeNeighborSearch() and neighborSearchMethods() of libsph/NeighborSearch.h:
 // the one place that knows every search method by name.
 #include "libsph/NeighborSearch.h"
+#include "libsph/search/OctreeSearch.h"
 #include "libsph/search/UniformGridSearch.h"
 
 #include <stdexcept>
 
 namespace cascade {
 
-std::vector<std::string> neighborSearchMethods() { return {"brute", "grid"}; }
+std::vector<std::string> neighborSearchMethods() { return {"brute", "grid", "octree"}; }
 
 std::unique_ptr<NeighborSearch> makeNeighborSearch(const std::string& method) {
   if (method == "brute") return std::make_unique<BruteForceSearch>();
   if (method == "grid") return std::make_unique<search::UniformGridSearch>();
+  if (method == "octree") return std::make_unique<search::OctreeSearch>();
   throw std::invalid_argument("unknown neighbour search method '" + method + "'");
 }
 

@@ -1,7 +1,9 @@
 #include "libsph/search/UniformGridSearch.h"
 
 #include "libsph/search/MortonCode.h"
+#include "libsph/search/ListAssembly.h"
 #include "libsph/search/RadixSort.h"
+#include "libsph/search/ScanRange.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -14,11 +16,6 @@
 #include <limits>
 #include <numeric>
 #include <stdexcept>
-
-#if defined(__SSE2__) && !defined(CASCADE_DOUBLE)
-#include <immintrin.h>
-#define CASCADE_GRID_SSE 1
-#endif
 
 namespace cascade::search {
 
@@ -33,7 +30,7 @@ constexpr double kCellMargin = 1.0 / 1024.0;
 /// the float squared distance (a few ulp) and of the bounds themselves.
 constexpr double kRangeMargin = 1e-5;
 constexpr double kRangeSlack = 1e-20;
-constexpr std::size_t kPad = 8;
+constexpr std::size_t kPad = kScanPadding;
 
 struct Bounds {
   double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
@@ -76,47 +73,6 @@ inline std::uint64_t hashKey(std::uint64_t key) { return key * 0x9E3779B97F4A7C1
 struct CellRange {
   std::uint32_t begin, end;
 };
-
-/// Tests the points at places [begin, end) against query q with squared radius
-/// radius2, writing the point indices (order[place]) of the neighbours to out.
-/// Returns how many were written. Exactly squaredDistance(q, p) <= radius2.
-inline std::uint32_t scanRange(const Real* xs, const Real* ys, const Real* zs,
-                               const std::uint32_t* order, std::uint32_t begin, std::uint32_t end,
-                               Real qx, Real qy, Real qz, Real radius2, std::uint32_t exclude,
-                               std::uint32_t* out) {
-  std::uint32_t n = 0;
-#ifdef CASCADE_GRID_SSE
-  const __m128 vx = _mm_set1_ps(qx), vy = _mm_set1_ps(qy), vz = _mm_set1_ps(qz);
-  const __m128 vr2 = _mm_set1_ps(radius2);
-  for (std::uint32_t j = begin; j < end; j += 4) {
-    const __m128 dx = _mm_sub_ps(vx, _mm_loadu_ps(xs + j));
-    const __m128 dy = _mm_sub_ps(vy, _mm_loadu_ps(ys + j));
-    const __m128 dz = _mm_sub_ps(vz, _mm_loadu_ps(zs + j));
-    // ((dx*dx + dy*dy) + dz*dz), the evaluation order of squaredDistance().
-    const __m128 d2 =
-        _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
-    unsigned mask = static_cast<unsigned>(_mm_movemask_ps(_mm_cmple_ps(d2, vr2)));
-    if (end - j < 4) mask &= (1u << (end - j)) - 1u;
-    while (mask) {
-      const unsigned bit = static_cast<unsigned>(__builtin_ctz(mask));
-      mask &= mask - 1;
-      const std::uint32_t index = order[j + bit];
-      out[n] = index;
-      n += (index != exclude);
-    }
-  }
-#else
-  const Vec3r q(qx, qy, qz);
-  for (std::uint32_t j = begin; j < end; ++j) {
-    if (squaredDistance(q, Vec3r(xs[j], ys[j], zs[j])) <= radius2) {
-      const std::uint32_t index = order[j];
-      out[n] = index;
-      n += (index != exclude);
-    }
-  }
-#endif
-  return n;
-}
 
 } // namespace
 
@@ -394,17 +350,12 @@ struct GridQuery {
 
   /// Processes the query places of groups [groupBegin, groupEnd) into buffer;
   /// writes each query's neighbour count to counts[query index].
-  void runChunk(std::size_t groupBegin, std::size_t groupEnd, std::vector<std::uint32_t>& buffer,
-                std::size_t& used, std::uint32_t* counts) const {
+  void runChunk(std::size_t groupBegin, std::size_t groupEnd, ChunkWriter& writer) const {
     Stencil stencil;
-    used = 0;
     const Real* xs = grid.mX.data();
     const Real* ys = grid.mY.data();
     const Real* zs = grid.mZ.data();
     const std::uint32_t* order = grid.mOrder.data();
-    auto reserve = [&](std::size_t extra) {
-      if (used + extra + 1 > buffer.size()) buffer.resize(std::max(2 * buffer.size(), used + extra + 1024));
-    };
     for (std::size_t g = groupBegin; g < groupEnd; ++g) {
       std::uint32_t c[3];
       mortonDecode(groupKey[g], c[0], c[1], c[2]);
@@ -442,8 +393,7 @@ struct GridQuery {
             makeStencil(groupKey[g], stencil);
             haveStencil = true;
           }
-          reserve(stencil.candidates);
-          std::uint32_t* out = buffer.data() + used;
+          std::uint32_t* out = writer.reserve(stencil.candidates);
           const bool full = lo[0] < own[0] && lo[1] < own[1] && lo[2] < own[2] && hi[0] > own[0] &&
                             hi[1] > own[1] && hi[2] > own[2];
           if (full) {
@@ -473,13 +423,13 @@ struct GridQuery {
           }
           if (!empty)
             scanBox(boxLo, boxHi, [&](std::uint32_t begin, std::uint32_t end) {
-              reserve(found + (end - begin));
-              found += scanRange(xs, ys, zs, order, begin, end, qx, qy, qz, radius2, exclude,
-                                 buffer.data() + used + found);
+              std::uint32_t* out = writer.reserve(end - begin);
+              writer.advance(scanRange(xs, ys, zs, order, begin, end, qx, qy, qz, radius2,
+                                       exclude, out));
             });
         }
-        used += found;
-        counts[q] = found;
+        writer.advance(found);
+        writer.finishQuery(q);
       }
     }
   }
@@ -498,11 +448,8 @@ void UniformGridSearch::query(const Vec3r* queries, std::size_t count, const Rea
     throw std::length_error("grid neighbour search: too many queries (" + std::to_string(count) + ")");
 
   std::unique_lock<std::mutex> lock(mScratchMutex, std::try_to_lock);
-  std::vector<std::vector<std::uint32_t>> localBuffers;
-  std::vector<std::uint32_t> localCounts;
-  auto& buffers = lock.owns_lock() ? mChunkBuffers : localBuffers;
-  auto& counts = lock.owns_lock() ? mCounts : localCounts;
-  counts.resize(count);
+  ListScratch localScratch;
+  ListScratch& scratch = lock.owns_lock() ? mScratch : localScratch;
 
   // Group the queries by cell, in curve order.
   const bool self = queries == mPoints && count == mCount;
@@ -546,48 +493,18 @@ void UniformGridSearch::query(const Vec3r* queries, std::size_t count, const Rea
   // Chunks of whole groups with about the same number of queries.
   const std::size_t target = std::max<std::size_t>(512, count / 256);
   std::vector<std::size_t> chunkGroup{0};
+  std::vector<std::uint32_t> chunkStart{0};
   for (std::size_t g = 0; g < groups; ++g)
-    if (groupStart[g + 1] - groupStart[chunkGroup.back()] >= target || g + 1 == groups)
+    if (groupStart[g + 1] - groupStart[chunkGroup.back()] >= target || g + 1 == groups) {
       chunkGroup.push_back(g + 1);
-  const std::size_t chunks = chunkGroup.size() - 1;
-  if (buffers.size() < chunks) buffers.resize(chunks);
-  std::vector<std::size_t> used(chunks, 0);
+      chunkStart.push_back(groupStart[g + 1]);
+    }
 
   const GridQuery job{*this, queries, supportRadii, excludeSelf, self, queryOrder, groupStart, groupKey};
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& range) {
-    for (std::size_t c = range.begin(); c != range.end(); ++c)
-      job.runChunk(chunkGroup[c], chunkGroup[c + 1], buffers[c], used[c], counts.data());
-  });
-
-  // Compressed rows in query order.
-  std::uint64_t total = 0;
-  for (std::size_t q = 0; q < count; ++q) {
-    out.offsets[q] = static_cast<std::uint32_t>(total);
-    total += counts[q];
-  }
-  if (total >= std::uint64_t(kNoIndex))
-    throw std::length_error("grid neighbour search: more than 2^32 neighbour pairs");
-  out.offsets[count] = static_cast<std::uint32_t>(total);
-  out.indices.resize(total);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& range) {
-    for (std::size_t c = range.begin(); c != range.end(); ++c) {
-      const std::uint32_t first = groupStart[chunkGroup[c]], last = groupStart[chunkGroup[c + 1]];
-      const std::uint32_t* source = buffers[c].data();
-      const bool contiguous = queryOrder[last - 1] - queryOrder[first] == last - 1 - first &&
-                              std::is_sorted(queryOrder + first, queryOrder + last);
-      if (contiguous) {
-        if (used[c]) std::memcpy(out.indices.data() + out.offsets[queryOrder[first]], source,
-                                 used[c] * sizeof(std::uint32_t));
-        continue;
-      }
-      for (std::uint32_t s = first; s < last; ++s) {
-        const std::uint32_t q = queryOrder[s];
-        if (counts[q]) std::memcpy(out.indices.data() + out.offsets[q], source,
-                                   counts[q] * sizeof(std::uint32_t));
-        source += counts[q];
-      }
-    }
-  });
+  assembleLists(count, queryOrder, chunkStart, scratch, out,
+                [&](std::size_t chunk, std::uint32_t, std::uint32_t, ChunkWriter& writer) {
+                  job.runChunk(chunkGroup[chunk], chunkGroup[chunk + 1], writer);
+                });
 }
 
 } // namespace cascade::search

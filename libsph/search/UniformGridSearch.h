@@ -27,6 +27,7 @@
 #pragma once
 
 #include "libsph/NeighborSearch.h"
+#include "libsph/search/ListAssembly.h"
 
 #include <cstdint>
 #include <mutex>
@@ -93,8 +94,7 @@ private:
   std::vector<std::uint64_t> mKeyScratch, mKeyScratch2;
   std::vector<std::uint32_t> mIndexScratch, mIndexScratch2;
   mutable std::mutex mScratchMutex;
-  mutable std::vector<std::vector<std::uint32_t>> mChunkBuffers;
-  mutable std::vector<std::uint32_t> mCounts;
+  mutable ListScratch mScratch;
 };
 
 } // namespace cascade::search

@@ -3,6 +3,7 @@
 #include "libsph/NeighborSearch.h"
 #include "libsph/Particles.h"
 #include "libsph/search/MortonCode.h"
+#include "libsph/search/OctreeSearch.h"
 #include "libsph/search/UniformGridSearch.h"
 
 #include <gtest/gtest.h>
@@ -37,13 +38,19 @@ Sets bruteSets(const std::vector<Vec3r>& points, const std::vector<Vec3r>& queri
   return toSets(lists);
 }
 
+/// The registered methods, plus the bucket octree variant.
+std::unique_ptr<NeighborSearch> makeSearch(const std::string& method) {
+  if (method == "octree_bucket8") return std::make_unique<search::OctreeSearch>(8);
+  return makeNeighborSearch(method);
+}
+
 /// Compares a method against brute force, list by list, and checks the CSR shape.
 void expectSameAsBrute(const std::string& method, const std::vector<Vec3r>& points,
                        const std::vector<Vec3r>* otherQueries, Real radius,
                        const std::vector<Real>* radii = nullptr, bool excludeSelf = true) {
   const std::vector<Vec3r>& queries = otherQueries ? *otherQueries : points;
   const Sets expected = bruteSets(points, queries, radius, radii, otherQueries ? false : excludeSelf);
-  auto search = makeNeighborSearch(method);
+  auto search = makeSearch(method);
   NeighborLists lists;
   search->build(points.data(), points.size(), radius);
   search->query(queries.data(), queries.size(), radii ? radii->data() : nullptr,
@@ -98,7 +105,7 @@ class SearchMethod : public ::testing::TestWithParam<std::string> {};
 
 TEST(NeighborSearchRegistry, KnowsEveryMethod) {
   const auto methods = neighborSearchMethods();
-  for (const char* name : {"brute", "grid"}) {
+  for (const char* name : {"brute", "grid", "octree"}) {
     ASSERT_NE(std::find(methods.begin(), methods.end(), name), methods.end()) << name;
     EXPECT_EQ(makeNeighborSearch(name)->name(), name);
   }
@@ -202,7 +209,7 @@ TEST_P(SearchMethod, RepeatedBuildsAfterSmallMovesAndReordering) {
   auto points = damBreakWithDroplets(0.01f, 14, 10, 10, 50, 7);
   std::mt19937 rng(8);
   std::uniform_real_distribution<Real> step(-0.002f, 0.002f);
-  auto search = makeNeighborSearch(GetParam());
+  auto search = makeSearch(GetParam());
   for (int frame = 0; frame < 4; ++frame) {
     NeighborLists lists;
     search->findNeighbors(points.data(), points.size(), 0.0203f, lists);
@@ -212,7 +219,7 @@ TEST_P(SearchMethod, RepeatedBuildsAfterSmallMovesAndReordering) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Methods, SearchMethod, ::testing::Values("grid"),
+INSTANTIATE_TEST_SUITE_P(Methods, SearchMethod, ::testing::Values("grid", "octree", "octree_bucket8"),
                          [](const auto& info) { return info.param; });
 
 TEST(UniformGridSearch, IncrementalRebuildMatchesFullRebuild) {
@@ -287,4 +294,42 @@ TEST(MortonCode, EncodeDecodeRoundTrip) {
     ASSERT_EQ(b, y);
     ASSERT_EQ(c, z);
   }
+}
+
+TEST(OctreeSearch, LeavesHoldAtMostOneParticleAndCubesContainTheirPoints) {
+  auto points = damBreakWithDroplets(0.01f, 10, 10, 10, 40, 13);
+  points.push_back(points[17]);  // a duplicate: cannot be split, the pair shares a leaf
+  search::OctreeSearch octree;
+  octree.build(points.data(), points.size(), 0.02f);
+  std::size_t leaves = 0, listed = 0;
+  for (const auto& node : octree.nodes()) {
+    ASSERT_LT(node.begin, node.end);
+    if (node.childCount == 0) {
+      ++leaves;
+      listed += node.end - node.begin;
+    } else {
+      // Children partition the parent's points, inside the parent's cube.
+      std::uint32_t expect = node.begin;
+      for (std::uint32_t c = 0; c < node.childCount; ++c) {
+        const auto& child = octree.nodes()[node.firstChild + c];
+        EXPECT_EQ(child.begin, expect);
+        expect = child.end;
+        EXPECT_GT(child.level, node.level);
+        for (int a = 0; a < 3; ++a) {
+          EXPECT_GE(child.corner[a], node.corner[a]);
+          EXPECT_LE(child.corner[a] + (1u << (21 - child.level)),
+                    node.corner[a] + (1u << (21 - node.level)));
+        }
+      }
+      EXPECT_EQ(expect, node.end);
+    }
+  }
+  EXPECT_EQ(listed, points.size());
+  EXPECT_EQ(octree.largestLeaf(), 2u);  // only the duplicate pair shares a leaf
+  EXPECT_GE(leaves, points.size() - 1);
+
+  search::OctreeSearch bucket(8);
+  bucket.build(points.data(), points.size(), 0.02f);
+  EXPECT_LE(bucket.largestLeaf(), 8u);
+  EXPECT_LT(bucket.nodeCount(), octree.nodeCount());
 }
