@@ -3,7 +3,7 @@
 ///        built by the Simulation and read by every pass of the step:
 ///        - type I: the static surface samples of every boundary (sampled once
 ///          with no gap above sampleGap * r0), with for each fluid particle the
-///          samples within the support radius h (compressed rows);
+///          samples within a query radius (r0 for WCSPH; compressed rows);
 ///        - type II: for each fluid particle within kappa h of a boundary the
 ///          mirror maps it sees (compressed rows); its mirror particles are the
 ///          images of itself and of its fluid neighbours under those maps that
@@ -28,18 +28,19 @@ public:
   BoundaryParticles(BoundaryParticles&&) noexcept;
   BoundaryParticles& operator=(BoundaryParticles&&) noexcept;
 
-  /// Samples the boundaries' surfaces (type I) and indexes the samples.
-  void sample(const std::vector<BoundaryPtr>& boundaries, Real maxGap, Real supportRadius);
+  /// Samples the boundaries' surfaces (type I) and indexes the samples for
+  /// queries of radius up to sampleRadius (WCSPH: r0 of SEED (11)).
+  void sample(const std::vector<BoundaryPtr>& boundaries, Real maxGap, Real sampleRadius);
 
-  /// Rebuilds the per-particle sample lists (within supportRadius) and the
-  /// mirror maps (boundaries within mirrorRange = kappa h) for this step.
+  /// Rebuilds the per-particle sample lists (samples within sampleRadius) and
+  /// the mirror maps (boundaries within mirrorRange = kappa h) for this step.
   void update(const Particles& particles, const std::vector<BoundaryPtr>& boundaries,
-              Real supportRadius, Real mirrorRange, bool withSamples, bool withMirrors);
+              Real sampleRadius, Real mirrorRange, bool withSamples, bool withMirrors);
 
   // --- type I ---
   const std::vector<Vec3r>& samplePositions() const { return mSamples; }
   const std::vector<std::uint32_t>& sampleOwners() const { return mOwners; }  ///< boundary index per sample
-  /// For fluid particle i: samples within h (indices into samplePositions()).
+  /// For fluid particle i: samples within sampleRadius (indices into samplePositions()).
   const NeighborLists& sampleNeighbors() const { return mSampleNeighbors; }
 
   // --- type II ---

@@ -38,7 +38,7 @@ double waterHeight(const std::vector<Vec3r>& positions, double x, double y, Real
 
 /// Pressure at a point on a boundary: the Shepard-normalised SPH average of
 /// the particles within supportRadius (poly6 weights, SEED (4)/(7)) of
-/// p_j + rho_j g . (x_j - point), i.e. each pressure extrapolated
+/// p_j + rho_j g . (point - x_j), i.e. each pressure extrapolated
 /// hydrostatically to the point (Adami et al. 2012). 0 if no particle is near.
 double pressureAt(const Particles& particles, const Vec3r& point, Real supportRadius,
                   const Vec3r& gravity);

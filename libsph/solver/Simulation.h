@@ -71,6 +71,15 @@ public:
   /// Mutable access for scene set-up and tests; do not change the count
   /// other than through addParticle() / addFluidBox().
   Particles& particles() { return mParticles; }
+  /// Forgets the neighbour search's memory of earlier builds (the next build
+  /// is a full one, as after restore()), so that a run restored from a
+  /// checkpoint taken now continues bit-identically: the incremental grid
+  /// rebuild orders points within a cell by history. The bake calls it at
+  /// every checkpoint (issue 4).
+  void resetNeighborSearch();
+  /// Removes the particles whose flag is true (scene kill regions; issue 4);
+  /// returns how many. Not counted in removedCount().
+  std::size_t removeParticles(const std::vector<char>& remove);
   /// Particles removed because they left the domain, since the start.
   std::uint64_t removedCount() const { return mRemovedCount; }
   /// The derived constants (valid after the first step or nextTimeStep()).

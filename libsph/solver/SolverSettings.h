@@ -18,7 +18,10 @@ namespace cascade {
 
 /// The fluid (SEED section 1).
 struct FluidSettings {
-  Real spacing = Real(0.02);        ///< initial particle spacing, m; mass = restDensity * spacing^3
+  /// Initial particle spacing, m. The particle mass is restDensity / (sum of
+  /// poly6 over the cubic lattice of this spacing), about restDensity * spacing^3,
+  /// so that a particle inside the initial lattice has exactly the rest density.
+  Real spacing = Real(0.02);
   Real restDensity = Real(1000);    ///< rho_0, kg/m^3
   Real viscosity = Real(0);         ///< dynamic viscosity mu of SEED (6), Pa s; 0 skips the term
 };
@@ -82,11 +85,15 @@ struct BoundarySettings {
   /// D of SEED (11), m^2/s^2. 0: expectedSpeed^2 (the SEED: "of the order of
   /// the squared maximum speed").
   Real repulsionStrength = Real(0);
-  /// r0 of SEED (11), m. 0: the fluid spacing.
+  /// r0 of SEED (11), m. 0: half the fluid spacing. The SEED sets r0 "about
+  /// the initial particle spacing" between the wall and the first fluid layer;
+  /// with mirror particles that layer sits half a spacing off the wall (its
+  /// mirror images complete the lattice), so r0 = spacing would push the
+  /// resting first layer away with a huge force at the start.
   Real repulsionRadius = Real(0);
   /// Largest gap between neighbouring type I particles, as a fraction of r0
   /// (SEED: no gap may exceed r0; meshes are subdivided until it holds).
-  Real sampleGap = Real(0.5);
+  Real sampleGap = Real(1);
   MirrorSlip slip = MirrorSlip::FreeSlip;
   /// Mirror particles are made for fluid particles closer than kappa * h to a
   /// boundary (SEED: kappa = 1 or 2).

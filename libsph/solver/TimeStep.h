@@ -52,8 +52,26 @@ struct StepContext {
   Real maxAcceleration = 0;              ///< out: largest |a| of the step (force limit of dt)
 };
 
+/// What a strategy needs the Simulation to prepare each step (the defaults
+/// are the SEED's WCSPH needs).
+struct TimeStepNeeds {
+  /// CFL dt = cfl h / (c + v_max) with c = sqrt(k) (weakly compressible); false:
+  /// dt = cfl h / v_max, no speed of sound (incompressible solvers, e.g. DFSPH).
+  bool speedOfSoundInCfl = true;
+  /// Type II mirror particles, if BoundarySettings enable them; false: never built.
+  bool mirrorParticles = true;
+  /// Type I samples even if BoundarySettings::repulsionParticles is off.
+  bool alwaysSamples = false;
+  /// Largest gap between type I samples, m (0: BoundarySettings::sampleGap * r0).
+  Real sampleGap = 0;
+  /// Radius of each fluid particle's type I sample list, m (0: r0 of SEED (11)).
+  Real sampleRadius = 0;
+};
+
 class TimeStep {
 public:
+  /// What this method needs prepared (called when the simulation starts).
+  virtual TimeStepNeeds needs(const SimulationSettings&, const DerivedConstants&) const { return {}; }
   virtual ~TimeStep() = default;
   /// The method's name as used in scenes ("wcsph", "dfsph").
   virtual std::string name() const = 0;

@@ -1,0 +1,56 @@
+#include "libsph/boundary/BoundarySampling.h"
+
+#include "libsph/NeighborSearch.h"
+
+#include <cmath>
+#include <cstdint>
+#include <unordered_map>
+
+namespace cascade {
+
+void sampleRectangle(const Vec3r& center, const Vec3r& axisU, const Vec3r& axisV, Real halfU,
+                     Real halfV, Real maxGap, std::vector<Vec3r>& samples) {
+  const long nu = std::max(1L, static_cast<long>(std::ceil(2 * halfU / maxGap - Real(1e-4))));
+  const long nv = std::max(1L, static_cast<long>(std::ceil(2 * halfV / maxGap - Real(1e-4))));
+  for (long j = 0; j <= nv; ++j) {
+    const Real t = -halfV + 2 * halfV * Real(j) / Real(nv);
+    for (long i = 0; i <= nu; ++i) {
+      const Real s = -halfU + 2 * halfU * Real(i) / Real(nu);
+      samples.push_back(center + s * axisU + t * axisV);
+    }
+  }
+}
+
+void removeDuplicateSamples(std::vector<Vec3r>& samples, Real tolerance) {
+  if (samples.empty() || tolerance <= 0) return;
+  // Hash cells of edge `tolerance`; a duplicate lies in one of the 27 cells around.
+  const double inv = 1.0 / double(tolerance);
+  auto key = [](std::int64_t x, std::int64_t y, std::int64_t z) {
+    return (std::uint64_t(x) * 73856093ULL) ^ (std::uint64_t(y) * 19349663ULL) ^
+           (std::uint64_t(z) * 83492791ULL);
+  };
+  std::unordered_multimap<std::uint64_t, std::size_t> cells;
+  cells.reserve(samples.size() * 2);
+  std::vector<Vec3r> kept;
+  kept.reserve(samples.size());
+  const Real tolerance2 = tolerance * tolerance;
+  for (const Vec3r& p : samples) {
+    const std::int64_t cx = std::int64_t(std::floor(p.x() * inv));
+    const std::int64_t cy = std::int64_t(std::floor(p.y() * inv));
+    const std::int64_t cz = std::int64_t(std::floor(p.z() * inv));
+    bool duplicate = false;
+    for (int dz = -1; dz <= 1 && !duplicate; ++dz)
+      for (int dy = -1; dy <= 1 && !duplicate; ++dy)
+        for (int dx = -1; dx <= 1 && !duplicate; ++dx) {
+          auto range = cells.equal_range(key(cx + dx, cy + dy, cz + dz));
+          for (auto it = range.first; it != range.second; ++it)
+            if (squaredDistance(kept[it->second], p) < tolerance2) { duplicate = true; break; }
+        }
+    if (duplicate) continue;
+    cells.emplace(key(cx, cy, cz), kept.size());
+    kept.push_back(p);
+  }
+  samples.swap(kept);
+}
+
+} // namespace cascade

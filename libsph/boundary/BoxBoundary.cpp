@@ -1,0 +1,130 @@
+#include "libsph/boundary/BoxBoundary.h"
+
+#include "libsph/boundary/BoundarySampling.h"
+
+#include <cmath>
+
+namespace cascade {
+
+BoundaryPtr BoxBoundary::tank(const Vec3r& lo, const Vec3r& hi, bool closedTop) {
+  std::unique_ptr<BoxBoundary> box(new BoxBoundary());
+  box->mCenter = Real(0.5) * (lo + hi);
+  box->mHalf = Real(0.5) * (hi - lo);
+  box->mTank = true;
+  box->mClosedTop = closedTop;
+  return box;
+}
+
+BoundaryPtr BoxBoundary::solid(const Vec3r& center, const Vec3r& halfExtents,
+                               const Eigen::Matrix<Real, 3, 3>& rotation) {
+  std::unique_ptr<BoxBoundary> box(new BoxBoundary());
+  box->mCenter = center;
+  box->mHalf = halfExtents;
+  box->mRotation = rotation;
+  box->mTank = false;
+  return box;
+}
+
+void BoxBoundary::sampleSurface(Real maxGap, std::vector<Vec3r>& samples) const {
+  const std::size_t first = samples.size();
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side) {
+      if (!faceIsWall(axis, side)) continue;
+      const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+      const Vec3r normal = mRotation.col(axis) * (side ? Real(1) : Real(-1));
+      sampleRectangle(mCenter + normal * mHalf[axis], mRotation.col(a), mRotation.col(b), mHalf[a],
+                      mHalf[b], maxGap, samples);
+    }
+  std::vector<Vec3r> mine(samples.begin() + first, samples.end());
+  removeDuplicateSamples(mine, maxGap * Real(0.01));
+  samples.resize(first);
+  samples.insert(samples.end(), mine.begin(), mine.end());
+}
+
+void BoxBoundary::mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryIndex,
+                             std::vector<MirrorMap>& maps) const {
+  const Vec3r q = mRotation.transpose() * (x - mCenter);
+  if (mTank) {
+    // Walls within range: one reflection each, and the products of the
+    // reflections across walls of different axes (edges and corners).
+    MirrorMap near[3];
+    bool haveAxis[3] = {false, false, false};
+    const std::size_t first = maps.size();
+    for (int axis = 0; axis < 3; ++axis) {
+      if (std::abs(q[axis]) > mHalf[axis] + range) return;  // far outside: not this tank's fluid
+      for (int side = 0; side < 2; ++side) {
+        if (!faceIsWall(axis, side)) continue;
+        const Real sign = side ? Real(1) : Real(-1);
+        const Real distance = mHalf[axis] - sign * q[axis];  // > 0 inside
+        if (distance < 0 || distance >= range) continue;
+        const Vec3r normal = mRotation.col(axis) * sign;  // outward; reflection is sign-free
+        const MirrorMap map = MirrorMap::reflection(mCenter + normal * mHalf[axis], normal, boundaryIndex);
+        maps.push_back(map);
+        if (!haveAxis[axis]) { near[axis] = map; haveAxis[axis] = true; }
+      }
+    }
+    if (maps.size() - first < 2) return;
+    for (int a = 0; a < 3; ++a)
+      for (int b = a + 1; b < 3; ++b)
+        if (haveAxis[a] && haveAxis[b]) maps.push_back(near[b].after(near[a]));
+    if (haveAxis[0] && haveAxis[1] && haveAxis[2]) maps.push_back(near[2].after(near[1]).after(near[0]));
+    return;
+  }
+  // Solid block: closest point on the box; mirror across the tangent plane there.
+  Vec3r excess;
+  for (int axis = 0; axis < 3; ++axis) excess[axis] = std::abs(q[axis]) - mHalf[axis];
+  if (excess.maxCoeff() <= 0) return;  // inside: penetrated, the repulsion handles it
+  Vec3r closest = q;
+  for (int axis = 0; axis < 3; ++axis) closest[axis] = std::clamp(q[axis], -mHalf[axis], mHalf[axis]);
+  const Vec3r offset = q - closest;
+  const Real distance = offset.norm();
+  if (distance >= range || distance <= 0) return;
+  const Vec3r normal = mRotation * (offset / distance);
+  maps.push_back(MirrorMap::reflection(mCenter + mRotation * closest, normal, boundaryIndex));
+}
+
+bool BoxBoundary::isInside(const Vec3r& x) const {
+  const Vec3r q = mRotation.transpose() * (x - mCenter);
+  bool within = true;
+  for (int axis = 0; axis < 3; ++axis) {
+    if (mTank && axis == 2 && !mClosedTop) {
+      if (q[axis] < -mHalf[axis]) within = false;
+      continue;
+    }
+    if (std::abs(q[axis]) > mHalf[axis]) within = false;
+  }
+  return mTank ? !within : within;
+}
+
+TriangleMesh BoxBoundary::surfaceMesh() const {
+  TriangleMesh mesh;
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side) {
+      if (!faceIsWall(axis, side)) continue;
+      const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+      const Real sign = side ? Real(1) : Real(-1);
+      // Outward normal of the solid; a tank's walls face the fluid (inwards).
+      const Vec3r normal = mRotation.col(axis) * (mTank ? -sign : sign);
+      const Vec3r center = mCenter + mRotation.col(axis) * (sign * mHalf[axis]);
+      Vec3r u = mRotation.col(a) * mHalf[a], v = mRotation.col(b) * mHalf[b];
+      if (u.cross(v).dot(normal) < 0) std::swap(u, v);
+      const std::uint32_t base = static_cast<std::uint32_t>(mesh.vertices.size());
+      const Vec3r corners[4] = {center - u - v, center + u - v, center + u + v, center - u + v};
+      for (const Vec3r& c : corners) {
+        mesh.vertices.push_back(c.cast<float>());
+        mesh.normals.push_back(normal.cast<float>());
+      }
+      mesh.triangles.push_back({base, base + 1, base + 2});
+      mesh.triangles.push_back({base, base + 2, base + 3});
+    }
+  mesh.groups.push_back({name(), 0, mesh.triangles.size()});
+  return mesh;
+}
+
+void BoxBoundary::bounds(Vec3r& lo, Vec3r& hi) const {
+  const Vec3r extent = mRotation.cwiseAbs() * mHalf;
+  lo = mCenter - extent;
+  hi = mCenter + extent;
+}
+
+} // namespace cascade

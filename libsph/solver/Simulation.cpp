@@ -1,0 +1,459 @@
+#include "libsph/solver/Simulation.h"
+
+#include "libsph/Errors.h"
+#include "libsph/Kernels.h"
+#include "libsph/io/AtomicFile.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+#include <tbb/parallel_sort.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <istream>
+#include <limits>
+#include <ostream>
+#include <sstream>
+#include <stdexcept>
+
+namespace cascade {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double millisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+/// Sum of poly6 over the cubic lattice of `spacing` around a lattice point (self included).
+double latticeKernelSum(Real spacing, Real supportRadius) {
+  const KernelPoly6 poly6(supportRadius);
+  const int reach = static_cast<int>(std::ceil(supportRadius / spacing));
+  double sum = 0;
+  for (int z = -reach; z <= reach; ++z)
+    for (int y = -reach; y <= reach; ++y)
+      for (int x = -reach; x <= reach; ++x) {
+        const Real r2 = spacing * spacing * Real(x * x + y * y + z * z);
+        sum += poly6.valueFromSquared(r2);
+      }
+  return sum;
+}
+
+std::uint64_t spreadBits(std::uint64_t v) {
+  v &= 0x1fffff;
+  v = (v | (v << 32)) & 0x1f00000000ffffULL;
+  v = (v | (v << 16)) & 0x1f0000ff0000ffULL;
+  v = (v | (v << 8)) & 0x100f00f00f00f00fULL;
+  v = (v | (v << 4)) & 0x10c30c30c30c30c3ULL;
+  v = (v | (v << 2)) & 0x1249249249249249ULL;
+  return v;
+}
+
+/// Type I samples with the gap and list radius the strategy needs (TimeStepNeeds),
+/// by default the SEED's sampleGap * r0 and r0.
+void sampleBoundaries(const TimeStep& timeStep, const SimulationSettings& settings, const DerivedConstants& constants,
+                      const std::vector<BoundaryPtr>& boundaries, BoundaryParticles& particles) {
+  const TimeStepNeeds needs = timeStep.needs(settings, constants);
+  const Real r0 = constants.repulsionRadius;
+  const Real gap = needs.sampleGap > 0 ? needs.sampleGap : settings.boundary.sampleGap * r0;
+  particles.sample(boundaries, gap, std::max(r0, needs.sampleRadius));
+}
+
+constexpr char kMagic[8] = {'C', 'S', 'C', 'D', 'S', 'I', 'M', '1'};
+
+template <typename T>
+void writePod(std::ostream& out, const T& value) {
+  out.write(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+template <typename T>
+void readPod(std::istream& in, T& value) {
+  in.read(reinterpret_cast<char*>(&value), sizeof(T));
+  if (!in) throw InputError("checkpoint: truncated data");
+}
+template <typename T>
+void writeArray(std::ostream& out, const std::vector<T>& values) {
+  writePod(out, static_cast<std::uint64_t>(values.size()));
+  out.write(reinterpret_cast<const char*>(values.data()), std::streamsize(values.size() * sizeof(T)));
+}
+template <typename T>
+void readArray(std::istream& in, std::vector<T>& values, std::uint64_t expected) {
+  std::uint64_t count = 0;
+  readPod(in, count);
+  if (count != expected) throw InputError("checkpoint: inconsistent array size");
+  values.resize(count);
+  in.read(reinterpret_cast<char*>(values.data()), std::streamsize(count * sizeof(T)));
+  if (!in) throw InputError("checkpoint: truncated data");
+}
+
+} // namespace
+
+Simulation::Simulation(const SimulationSettings& settings) : mSettings(settings) {
+  validateSettings(mSettings, "settings");
+  try {
+    mTimeStep = makeTimeStep(mSettings.solver.type);
+  } catch (const std::invalid_argument&) {
+    std::string known;
+    for (const std::string& t : timeStepTypes()) known += (known.empty() ? "" : ", ") + t;
+    throw InputError("settings: solver.type: unknown solver '" + mSettings.solver.type + "' (known: " + known + ")");
+  }
+  try {
+    mSearch = makeNeighborSearch(mSettings.solver.neighborSearch);
+  } catch (const std::invalid_argument&) {
+    throw InputError("settings: solver.neighbor_search: unknown method '" + mSettings.solver.neighborSearch + "'");
+  }
+  mConstants.supportRadius = mSettings.solver.supportRadiusFactor * mSettings.fluid.spacing;
+  mConstants.particleMass = static_cast<Real>(
+      mSettings.fluid.restDensity / latticeKernelSum(mSettings.fluid.spacing, mConstants.supportRadius));
+  mParticles.mass = mConstants.particleMass;
+}
+
+Simulation::~Simulation() = default;
+
+Real Simulation::supportRadius() const { return mConstants.supportRadius; }
+Real Simulation::particleMass() const { return mConstants.particleMass; }
+
+std::size_t Simulation::addBoundary(BoundaryPtr boundary) {
+  if (boundary->name().empty()) boundary->setName(boundary->kind() + std::to_string(mBoundaries.size()));
+  mBoundaries.push_back(std::move(boundary));
+  mObstacleForce.assign(mBoundaries.size(), Vec3d::Zero());
+  if (mStarted) {
+    sampleBoundaries(*mTimeStep, mSettings, mConstants, mBoundaries, mBoundaryParticles);
+  }
+  return mBoundaries.size() - 1;
+}
+
+long Simulation::findBoundary(const std::string& name) const {
+  for (std::size_t b = 0; b < mBoundaries.size(); ++b)
+    if (mBoundaries[b]->name() == name) return static_cast<long>(b);
+  return -1;
+}
+
+ParticleId Simulation::addParticle(const Vec3r& position, const Vec3r& velocity) {
+  const ParticleId id = mNextId++;
+  mParticles.add(position, velocity, id);
+  mParticles.density.back() = mSettings.fluid.restDensity;
+  mTimeStep->resize(mParticles.size());
+  return id;
+}
+
+std::size_t Simulation::addFluidBox(const Vec3r& lo, const Vec3r& hi, const Vec3r& velocity) {
+  const Real s = mSettings.fluid.spacing;
+  long counts[3];
+  for (int a = 0; a < 3; ++a) counts[a] = std::max(0L, static_cast<long>(std::floor((hi[a] - lo[a]) / s + Real(1e-3))));
+  const std::size_t before = mParticles.size();
+  mParticles.reserve(before + std::size_t(counts[0]) * counts[1] * counts[2]);
+  for (long z = 0; z < counts[2]; ++z)
+    for (long y = 0; y < counts[1]; ++y)
+      for (long x = 0; x < counts[0]; ++x) {
+        const Vec3r p = lo + s * Vec3r(Real(x) + Real(0.5), Real(y) + Real(0.5), Real(z) + Real(0.5));
+        const ParticleId id = mNextId++;
+        mParticles.add(p, velocity, id);
+        mParticles.density.back() = mSettings.fluid.restDensity;
+      }
+  mTimeStep->resize(mParticles.size());
+  return mParticles.size() - before;
+}
+
+void Simulation::start() {
+  if (mStarted) return;
+  const SolverSettings& solver = mSettings.solver;
+  // Expected speed: free fall over the height of the scene, or the fastest particle.
+  Real expected = solver.expectedSpeed;
+  if (expected <= 0) {
+    const Real g = solver.gravity.norm();
+    Real speed2 = 0;
+    for (const Vec3r& v : mParticles.velocity) speed2 = std::max(speed2, v.squaredNorm());
+    Real fall = 0;
+    if (g > 0 && !mParticles.empty()) {
+      const Vec3r up = -solver.gravity / g;
+      Real top = -std::numeric_limits<Real>::max(), bottom = std::numeric_limits<Real>::max();
+      for (const Vec3r& p : mParticles.position) {
+        top = std::max(top, p.dot(up));
+        bottom = std::min(bottom, p.dot(up));
+      }
+      for (const BoundaryPtr& b : mBoundaries) {
+        Vec3r lo, hi;
+        b->bounds(lo, hi);
+        for (int corner = 0; corner < 8; ++corner) {
+          const Vec3r c((corner & 1) ? hi.x() : lo.x(), (corner & 2) ? hi.y() : lo.y(), (corner & 4) ? hi.z() : lo.z());
+          bottom = std::min(bottom, c.dot(up));
+        }
+      }
+      fall = std::sqrt(Real(2) * g * std::max(Real(0), top - bottom));
+    }
+    const Real floor = std::sqrt(Real(2) * kStandardGravity * mConstants.supportRadius);
+    expected = std::max({fall, std::sqrt(speed2), floor});
+  }
+  mConstants.expectedSpeed = expected;
+  mConstants.stiffness = solver.stiffness > 0 ? solver.stiffness : Real(100) * expected * expected;
+  mConstants.speedOfSound = std::sqrt(mConstants.stiffness);
+  if (!mTimeStep->needs(mSettings, mConstants).speedOfSoundInCfl) mConstants.speedOfSound = 0;  // CFL on v only
+  mConstants.repulsionStrength =
+      mSettings.boundary.repulsionStrength > 0 ? mSettings.boundary.repulsionStrength : expected * expected;
+  mConstants.repulsionRadius = mSettings.boundary.repulsionRadius > 0 ? mSettings.boundary.repulsionRadius
+                                                                      : Real(0.5) * mSettings.fluid.spacing;
+  mStarted = true;
+  sampleBoundaries(*mTimeStep, mSettings, mConstants, mBoundaries, mBoundaryParticles);
+  mObstacleForce.assign(mBoundaries.size(), Vec3d::Zero());
+}
+
+double Simulation::computeTimeStep() const {
+  const SolverSettings& solver = mSettings.solver;
+  const Real maxSpeed2 = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, mParticles.size(), 8192), Real(0),
+      [&](const auto& range, Real m) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) m = std::max(m, mParticles.velocity[i].squaredNorm());
+        return m;
+      },
+      [](Real a, Real b) { return std::max(a, b); });
+  const double h = mConstants.supportRadius;
+  double dt = solver.cflFactor * h / (double(mConstants.speedOfSound) + std::sqrt(double(maxSpeed2)));
+  const double nu = mSettings.fluid.viscosity / mSettings.fluid.restDensity;
+  if (nu > 0) dt = std::min(dt, 0.125 * h * h / nu);
+  if (mLastMaxAcceleration > 0) dt = std::min(dt, 0.25 * std::sqrt(h / double(mLastMaxAcceleration)));
+  return std::clamp(dt, double(solver.minTimeStep), double(solver.maxTimeStep));
+}
+
+double Simulation::nextTimeStep() {
+  start();
+  return computeTimeStep();
+}
+
+void Simulation::reorder() {
+  const std::size_t n = mParticles.size();
+  if (n < 2) return;
+  Vec3r lo = Vec3r::Constant(std::numeric_limits<Real>::max());
+  for (const Vec3r& p : mParticles.position)
+    if (p.allFinite()) lo = lo.cwiseMin(p);
+  const double inv = 1.0 / double(mConstants.supportRadius);
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(n);
+  tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
+    const Vec3r& p = mParticles.position[i];
+    std::uint64_t c[3];
+    for (int a = 0; a < 3; ++a) {
+      const double f = (double(p[a]) - double(lo[a])) * inv;
+      c[a] = (f >= 0 && f < 2097151.0) ? std::uint64_t(f) : 2097151ULL;
+    }
+    keys[i] = {spreadBits(c[0]) | (spreadBits(c[1]) << 1) | (spreadBits(c[2]) << 2), std::uint32_t(i)};
+  });
+  tbb::parallel_sort(keys.begin(), keys.end());
+  std::vector<std::size_t> order(n);
+  for (std::size_t k = 0; k < n; ++k) order[k] = keys[k].second;
+  mParticles.permute(order);
+  mTimeStep->permute(order);
+}
+
+double Simulation::step() {
+  start();
+  const double dt = computeTimeStep();
+  mLastTimeStep = dt;
+  auto begin = Clock::now();
+  const std::size_t interval = static_cast<std::size_t>(mSettings.solver.reorderInterval);
+  if (interval > 0 && mStepCount % interval == 0) reorder();
+  const Real h = mConstants.supportRadius;
+  if (mParticles.empty()) {
+    mNeighbors.clear();
+  } else {
+    mSearch->findNeighbors(mParticles.position.data(), mParticles.size(), h, mNeighbors);
+  }
+  mTimings.neighbors += millisecondsSince(begin);
+
+  begin = Clock::now();
+  const BoundarySettings& bs = mSettings.boundary;
+  const TimeStepNeeds needs = mTimeStep->needs(mSettings, mConstants);
+  mBoundaryParticles.update(mParticles, mBoundaries, std::max(mConstants.repulsionRadius, needs.sampleRadius),
+                            bs.kappa * h, bs.repulsionParticles || needs.alwaysSamples,
+                            bs.mirrorParticles && needs.mirrorParticles);
+  mTimings.boundary += millisecondsSince(begin);
+
+  mAcceleration.resize(mParticles.size());
+  mObstacleForce.assign(mBoundaries.size(), Vec3d::Zero());
+  StepContext context{mParticles, mNeighbors, mBoundaryParticles, mSettings, mConstants,
+                      mAcceleration, mObstacleForce, mTimings, mTime, 0};
+  mTimeStep->advance(context, static_cast<Real>(dt));
+  mLastMaxAcceleration = context.maxAcceleration;
+  mTime += dt;
+  ++mStepCount;
+  ++mTimings.steps;
+
+  begin = Clock::now();
+  removeOutside();
+  checkStability();
+  mTimings.integrate += millisecondsSince(begin);
+  return dt;
+}
+
+void Simulation::advanceTo(double endTime) {
+  start();
+  while (mTime < endTime) {
+    double dt = computeTimeStep();
+    if (mTime + dt >= endTime - 1e-12) {
+      // Land on endTime exactly: shorten the last step (the settings' minimum does not apply).
+      const SolverSettings saved = mSettings.solver;
+      mSettings.solver.minTimeStep = std::min(mSettings.solver.minTimeStep, Real(std::max(endTime - mTime, 1e-12)));
+      mSettings.solver.maxTimeStep = static_cast<Real>(std::max(endTime - mTime, 1e-12));
+      step();
+      mSettings.solver = saved;
+      mTime = endTime;
+      break;
+    }
+    step();
+  }
+}
+
+void Simulation::resetNeighborSearch() { mSearch = makeNeighborSearch(mSettings.solver.neighborSearch); }
+
+std::size_t Simulation::removeParticles(const std::vector<char>& remove) {
+  const std::size_t removed = mParticles.removeIf(remove);
+  if (removed > 0) mTimeStep->removeIf(remove);
+  return removed;
+}
+
+void Simulation::removeOutside() {
+  if (!mSettings.domain.enabled || mParticles.empty()) return;
+  const std::size_t n = mParticles.size();
+  std::vector<char> remove(n, 0);
+  const Vec3r lo = mSettings.domain.min, hi = mSettings.domain.max;
+  const std::size_t outside = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n, 8192), std::size_t(0),
+      [&](const auto& range, std::size_t count) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+          const Vec3r& p = mParticles.position[i];
+          if (!((p.array() >= lo.array()).all() && (p.array() <= hi.array()).all()) && p.allFinite()) {
+            remove[i] = 1;
+            ++count;
+          }
+        }
+        return count;
+      },
+      std::plus<std::size_t>());
+  if (outside == 0) return;
+  mRemovedCount += mParticles.removeIf(remove);
+  mTimeStep->removeIf(remove);
+}
+
+void Simulation::checkStability() const {
+  const Real limit = mSettings.solver.instabilitySpeedFactor * mConstants.expectedSpeed;
+  const Real limit2 = limit * limit;
+  const std::size_t n = mParticles.size();
+  // The first offending index (deterministic).
+  const std::size_t bad = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n, 8192), n,
+      [&](const auto& range, std::size_t first) {
+        for (std::size_t i = range.begin(); i != range.end() && i < first; ++i) {
+          const Vec3r& p = mParticles.position[i];
+          const Vec3r& v = mParticles.velocity[i];
+          if (!p.allFinite() || !v.allFinite() || v.squaredNorm() > limit2) return i;
+        }
+        return first;
+      },
+      [](std::size_t a, std::size_t b) { return std::min(a, b); });
+  if (bad == n) return;
+  const Vec3r& p = mParticles.position[bad];
+  const Vec3r& v = mParticles.velocity[bad];
+  std::ostringstream message;
+  message << "simulation unstable: particle " << mParticles.id[bad] << " at (" << p.x() << ", " << p.y()
+          << ", " << p.z() << "), t = " << mTime << " s: ";
+  if (!p.allFinite() || !v.allFinite())
+    message << "position or velocity is not a number";
+  else
+    message << "speed " << v.norm() << " m/s exceeds " << limit << " m/s (" << mSettings.solver.instabilitySpeedFactor
+            << " x the scene's expected " << mConstants.expectedSpeed << " m/s)";
+  throw InstabilityError(message.str());
+}
+
+Vec3d Simulation::obstacleForce(std::size_t index) const {
+  return index < mObstacleForce.size() ? mObstacleForce[index] : Vec3d::Zero();
+}
+
+TriangleMesh Simulation::solidsMesh() const {
+  TriangleMesh all;
+  for (const BoundaryPtr& b : mBoundaries) {
+    TriangleMesh mesh = b->surfaceMesh();
+    mesh.groups.assign(1, TriangleMesh::Group{b->name(), 0, mesh.triangles.size()});
+    all.append(mesh);
+  }
+  return all;
+}
+
+void Simulation::save(std::ostream& out) const {
+  out.write(kMagic, sizeof(kMagic));
+  writePod(out, static_cast<std::uint32_t>(sizeof(Real)));
+  writePod(out, static_cast<std::uint64_t>(mBoundaries.size()));
+  writePod(out, mStarted);
+  writePod(out, mTime);
+  writePod(out, mLastTimeStep);
+  writePod(out, mLastMaxAcceleration);
+  writePod(out, mStepCount);
+  writePod(out, mRemovedCount);
+  writePod(out, mNextId);
+  writePod(out, mConstants);
+  writePod(out, mParticles.mass);
+  const std::uint64_t n = mParticles.size();
+  writePod(out, n);
+  writeArray(out, mParticles.position);
+  writeArray(out, mParticles.velocity);
+  writeArray(out, mParticles.density);
+  writeArray(out, mParticles.pressure);
+  writeArray(out, mParticles.id);
+  writeArray(out, mObstacleForce);
+  mTimeStep->save(out);
+  if (!out) throw std::runtime_error("checkpoint: write failed");
+}
+
+void Simulation::restore(std::istream& in) {
+  char magic[sizeof(kMagic)];
+  in.read(magic, sizeof(magic));
+  if (!in || std::memcmp(magic, kMagic, sizeof(kMagic)) != 0) throw InputError("checkpoint: not a Cascade solver checkpoint");
+  std::uint32_t realSize = 0;
+  readPod(in, realSize);
+  if (realSize != sizeof(Real)) throw InputError("checkpoint: written with another floating-point precision");
+  std::uint64_t boundaries = 0;
+  readPod(in, boundaries);
+  if (boundaries != mBoundaries.size()) throw InputError("checkpoint: written for a scene with another set of boundaries");
+  readPod(in, mStarted);
+  readPod(in, mTime);
+  readPod(in, mLastTimeStep);
+  readPod(in, mLastMaxAcceleration);
+  readPod(in, mStepCount);
+  readPod(in, mRemovedCount);
+  readPod(in, mNextId);
+  readPod(in, mConstants);
+  readPod(in, mParticles.mass);
+  std::uint64_t n = 0;
+  readPod(in, n);
+  readArray(in, mParticles.position, n);
+  readArray(in, mParticles.velocity, n);
+  readArray(in, mParticles.density, n);
+  readArray(in, mParticles.pressure, n);
+  readArray(in, mParticles.id, n);
+  readArray(in, mObstacleForce, boundaries);
+  mTimeStep->resize(n);
+  mTimeStep->restore(in);
+  if (mStarted) {
+    sampleBoundaries(*mTimeStep, mSettings, mConstants, mBoundaries, mBoundaryParticles);
+  }
+}
+
+void Simulation::save(const std::string& path) const {
+  writeFileAtomically(path, [&](const std::filesystem::path& temp) {
+    std::ofstream out(temp, std::ios::binary);
+    if (!out) throw std::runtime_error(temp.string() + ": cannot write checkpoint");
+    save(out);
+  });
+}
+
+void Simulation::restore(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot read checkpoint");
+  try {
+    restore(in);
+  } catch (const InputError& e) {
+    throw InputError(path + ": " + e.what());
+  }
+}
+
+} // namespace cascade

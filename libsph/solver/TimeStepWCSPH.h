@@ -1,0 +1,42 @@
+/// @file TimeStepWCSPH.h
+/// @brief The SEED's weakly compressible SPH step (Mueller et al. 2003 with
+///        the SEED's corrections):
+///        density SEED (4) with poly6 (7); pressure from SEED (10) or Tait;
+///        pressure force SEED (5) with the spiky gradient (8), symmetric
+///        (p_i + p_j)/2; viscosity SEED (6) with the viscosity Laplacian (9);
+///        optional Monaghan (1992) artificial viscosity; gravity and the
+///        boundary forces (SEED (15)): type I repulsion SEED (11) and type II
+///        mirror particles; symplectic Euler SEED (12)-(14).
+///
+/// Every pass is a TBB loop over the contiguous particle arrays, reading the
+/// step's neighbour lists; the boundary passes only visit the boundary layer.
+#pragma once
+
+#include "libsph/solver/TimeStep.h"
+
+namespace cascade {
+
+class TimeStepWCSPH final : public TimeStep {
+public:
+  std::string name() const override { return "wcsph"; }
+  void advance(StepContext& context, Real dt) override;
+};
+
+/// Shared passes (also usable by other strategies and benchmarks).
+namespace wcsph {
+/// SEED (4): rho_i = m (W(0) + sum_j W(x_ij)) over fluid neighbours.
+void computeFluidDensity(StepContext& context);
+/// Adds the mirror particles' density to the boundary layer.
+void addMirrorDensity(StepContext& context);
+/// SEED (10) or Tait for every particle.
+void computePressure(StepContext& context);
+/// Fluid-fluid accelerations: SEED (5), (6), artificial viscosity, gravity.
+void computeFluidAcceleration(StepContext& context);
+/// Boundary layer: mirror pressure / viscosity and SEED (11) repulsion; fills
+/// context.obstacleForce (N, force on each boundary by the fluid).
+void addBoundaryAcceleration(StepContext& context);
+/// SEED (12)-(14): v += a dt, x += v dt. Returns the largest |a|.
+Real integrateSymplecticEuler(StepContext& context, Real dt);
+} // namespace wcsph
+
+} // namespace cascade
