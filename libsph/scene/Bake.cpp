@@ -1,0 +1,256 @@
+#include "libsph/scene/Bake.h"
+
+#include "libsph/Errors.h"
+#include "libsph/io/AtomicFile.h"
+#include "libsph/io/ParticleCache.h"
+#include "libsph/io/TriangleMesh.h"
+#include "libsph/probes/Probes.h"
+#include "libsph/scene/BakeCheckpoint.h"
+#include "libsph/scene/FluidSources.h"
+#include "libsph/scene/Manifest.h"
+#include "libsph/scene/Progress.h"
+#include "libsph/scene/SceneJson.h"
+#include "libsph/scene/SceneSetup.h"
+#include "libsph/solver/Simulation.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+namespace cascade::scene {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+std::string probeHeader(const Scene& scene) {
+  std::string header = "t";
+  for (const Probe& probe : scene.probes) {
+    if (probe.type == "force")
+      header += "," + probe.name + "_x," + probe.name + "_y," + probe.name + "_z";
+    else
+      header += "," + probe.name;
+  }
+  return header + "\n";
+}
+
+namespace {
+
+std::string formatValue(double value) {
+  if (!std::isfinite(value)) return "nan";
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.9g", value);
+  return buffer;
+}
+
+/// One probes.csv row at the simulation's current time.
+std::string sampleProbes(const Scene& scene, const Simulation& simulation) {
+  std::string row = formatValue(simulation.time());
+  const Particles& particles = simulation.particles();
+  const Real spacing = Real(scene.fluid.spacing);
+  const Vec3r gravity(Real(scene.gravity[0]), Real(scene.gravity[1]), Real(scene.gravity[2]));
+  for (const Probe& probe : scene.probes) {
+    const Vec3r at(Real(probe.at[0]), Real(probe.at[1]), Real(probe.at[2]));
+    if (probe.type == "height") {
+      row += "," + formatValue(waterHeight(particles.position, probe.at[0], probe.at[1], spacing));
+    } else if (probe.type == "pressure") {
+      row += "," + formatValue(pressureAt(particles, at, simulation.supportRadius(), gravity));
+    } else if (probe.type == "front") {
+      const Vec3r direction(Real(probe.direction[0]), Real(probe.direction[1]), Real(probe.direction[2]));
+      row += "," + formatValue(surgeFront(particles.position, direction.normalized(), spacing));
+    } else if (probe.type == "force") {
+      const Vec3d force = obstacleForce(simulation, probe.obstacle);
+      row += "," + formatValue(force.x()) + "," + formatValue(force.y()) + "," + formatValue(force.z());
+    }
+  }
+  return row + "\n";
+}
+
+ParticleFrame frameOf(const Simulation& simulation, const Scene& scene, int frame) {
+  const Particles& particles = simulation.particles();
+  ParticleFrame out;
+  out.position = particles.position;
+  out.velocity = particles.velocity;
+  out.id = particles.id;
+  out.density = particles.density;
+  out.pressure = particles.pressure;
+  out.time = simulation.time();
+  out.spacing = Real(scene.fluid.spacing);
+  out.metadata["scene"] = scene.name;
+  out.metadata["frame"] = std::to_string(frame);
+  return out;
+}
+
+bool framesExist(const OutputLayout& layout, int first, int last) {
+  std::error_code error;
+  for (int f = first; f <= last; ++f)
+    if (!fs::is_regular_file(layout.particles(f), error)) return false;
+  return true;
+}
+
+} // namespace
+
+BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
+  const auto wallStart = Clock::now();
+  const OutputLayout layout(options.outDir);
+  BakeResult result;
+  result.frameCount = scene.output.frameCount();
+  result.inputHash = sceneInputHash(scene);
+  const int first = options.frames.first.value_or(1);
+  const int last = std::min(options.frames.last.value_or(result.frameCount), result.frameCount);
+  if (first > result.frameCount)
+    throw InputError("--frames: the scene has " + std::to_string(result.frameCount) + " frames (got " +
+                     std::to_string(first) + ")");
+  result.firstFrame = first;
+  result.lastFrame = last;
+  Progress progress(options.log, options.progressTerminal);
+
+  // The resolved scene first: a failed bake still says what it ran.
+  writeTextAtomically(layout.scene(), sceneToJson(scene).dump(2) + "\n");
+
+  const fs::path checkpointFile = checkpointPath(options.outDir);
+  const std::optional<BakeCheckpoint> header = readCheckpointHeader(checkpointFile);
+  const bool matching = options.resume && header && header->inputHash == result.inputHash;
+  if (matching && header->frame >= last && framesExist(layout, first, last)) {
+    result.upToDate = true;
+    result.lastFrame = last;
+    result.complete = header->frame >= result.frameCount && framesExist(layout, 1, result.frameCount);
+    progress.message("bake: frames " + std::to_string(first) + "-" + std::to_string(last) +
+                     " already baked in " + options.outDir.string());
+    return result;
+  }
+
+  Simulation simulation(simulationSettings(scene));
+  setUpSimulation(scene, simulation, options.log);
+
+  BakeCheckpoint state;
+  state.inputHash = result.inputHash;
+  state.emitters.resize(scene.fluid.emitters.size());
+  // Resume only if every frame of the requested range before the checkpoint is on disk.
+  if (matching && header->frame < last && framesExist(layout, first, std::min(header->frame, last))) {
+    state = readCheckpoint(checkpointFile, simulation);
+    result.resumedAfter = state.frame;
+    progress.message("bake: resuming " + scene.name + " after frame " + std::to_string(state.frame) + " (t=" +
+                     formatValue(simulation.time()) + " s)");
+  } else {
+    std::error_code error;
+    fs::remove(checkpointFile, error);
+    // Stale frames of an earlier bake of another scene.
+    for (int f : listFrames(layout.particlesDir(), "particles", "vdb"))
+      if (f > result.frameCount) fs::remove(layout.particles(f), error);
+  }
+  const double wallBefore = state.wallSeconds;
+
+  std::vector<std::vector<Vec3r>> layers;
+  for (const Emitter& emitter : scene.fluid.emitters) layers.push_back(emitterLayer(emitter, scene.fluid.spacing));
+  const auto add = [&](const Vec3r& position, const Vec3r& velocity) { simulation.addParticle(position, velocity); };
+  const auto emit = [&]() {
+    for (std::size_t e = 0; e < scene.fluid.emitters.size(); ++e)
+      emitUntil(scene.fluid.emitters[e], layers[e], scene.fluid.spacing, simulation.time(), state.emitters[e], add);
+  };
+  std::vector<char> leaving;
+  const auto kill = [&]() {
+    if (scene.boundaries.kill.empty()) return;
+    if (flagLeavingParticles(Boundaries{std::nullopt, {}, {}, {}, std::nullopt, scene.boundaries.kill},
+                             simulation.particles(), leaving) > 0)
+      state.killed += simulation.removeParticles(leaving);
+  };
+  const bool hasProbes = !scene.probes.empty();
+  const double probeInterval = 1.0 / scene.output.probeRate;
+  const auto sampleDue = [&]() {
+    while (hasProbes && double(state.probeSamples) * probeInterval <= simulation.time() + 1e-12) {
+      state.probeRows += sampleProbes(scene, simulation);
+      ++state.probeSamples;
+    }
+  };
+
+  if (state.frame == 0) {
+    // A fresh start: the solids for the renderer, the first emitted layers, probes at t = 0.
+    TriangleMesh solids = simulation.solidsMesh();
+    writeObj(layout.root / "geometry" / "solids.obj", solids);
+    emit();
+    simulation.nextTimeStep();  // derives densities and constants for the t = 0 probes
+    sampleDue();
+  } else if (!fs::exists(layout.root / "geometry" / "solids.obj")) {
+    writeObj(layout.root / "geometry" / "solids.obj", simulation.solidsMesh());
+  }
+
+  const std::uint64_t stepsBefore = simulation.stepCount();
+  const auto recordBake = [&](bool done, const std::string& error) {
+    nlohmann::json record;
+    record["done"] = done;
+    record["input_hash"] = result.inputHash;
+    record["frames"] = {first, result.lastFrame};
+    record["frame_count"] = result.frameCount;
+    record["seconds"] = wallBefore + std::chrono::duration<double>(Clock::now() - wallStart).count();
+    record["simulated_time"] = simulation.time();
+    record["steps"] = simulation.stepCount();
+    record["particles"] = simulation.particles().size();
+    record["boundary_particles"] = simulation.boundaryParticleCount();
+    record["removed"] = simulation.removedCount() + state.killed;
+    record["resumed_after"] = result.resumedAfter;
+    if (!error.empty()) record["error"] = error;
+    recordStage(layout.manifest(), scene.name, "bake", record);
+  };
+
+  try {
+    for (int frame = state.frame + 1; frame <= last; ++frame) {
+      const double frameTime = double(frame) / scene.output.fps;
+      while (simulation.time() < frameTime) {
+        double target = frameTime;
+        if (hasProbes) target = std::min(target, double(state.probeSamples) * probeInterval);
+        if (simulation.time() + simulation.nextTimeStep() >= target) simulation.advanceTo(target);
+        else simulation.step();
+        emit();
+        kill();
+        sampleDue();
+        progress.update(frame, last, simulation.time(), double(last) / scene.output.fps, simulation.stepCount(),
+                        simulation.particles().size());
+        if (options.stopFlag && *options.stopFlag) {
+          result.interrupted = true;
+          break;
+        }
+      }
+      if (result.interrupted) break;
+      if (frame >= first) {
+        writeParticleFrame(layout.particles(frame), frameOf(simulation, scene, frame));
+        ++result.framesWritten;
+      }
+      if (hasProbes) writeTextAtomically(layout.probes(), probeHeader(scene) + state.probeRows);
+      state.frame = frame;
+      state.wallSeconds = wallBefore + std::chrono::duration<double>(Clock::now() - wallStart).count();
+      writeCheckpoint(checkpointFile, state, simulation);
+      // A resumed bake starts with a fresh neighbour search: so does this one.
+      simulation.resetNeighborSearch();
+      result.lastFrame = frame;
+    }
+  } catch (const InstabilityError& error) {
+    progress.message("");
+    result.lastFrame = state.frame;
+    recordBake(false, error.what());
+    throw;
+  }
+
+  result.lastFrame = state.frame;
+  result.simulatedTime = simulation.time();
+  result.wallSeconds = std::chrono::duration<double>(Clock::now() - wallStart).count();
+  result.steps = simulation.stepCount() - stepsBefore;
+  result.particles = simulation.particles().size();
+  result.removed = simulation.removedCount() + state.killed;
+  result.complete = !result.interrupted && state.frame >= result.frameCount && framesExist(layout, 1, result.frameCount);
+  recordBake(result.complete, result.interrupted ? "interrupted" : "");
+  char summary[256];
+  std::snprintf(summary, sizeof summary,
+                "bake: %s frames %d-%d (%d written) t=%.3f s, %llu steps in %.1f s (%.2f simulated s per wall s), "
+                "%zu particles, %llu removed",
+                result.interrupted ? "interrupted after" : "baked", first, result.lastFrame, result.framesWritten,
+                result.simulatedTime, static_cast<unsigned long long>(result.steps), result.wallSeconds,
+                result.wallSeconds > 0 ? (result.simulatedTime - double(result.resumedAfter) / scene.output.fps) /
+                                             result.wallSeconds
+                                       : 0.0,
+                result.particles, static_cast<unsigned long long>(result.removed));
+  progress.finish(summary);
+  return result;
+}
+
+} // namespace cascade::scene
