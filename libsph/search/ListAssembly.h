@@ -30,9 +30,9 @@ class ChunkWriter {
 public:
   ChunkWriter(std::vector<std::uint32_t>& buffer, std::uint32_t* counts)
       : mBuffer(buffer), mCounts(counts) {}
-  /// Room for `extra` more indices (plus one spare) at cursor().
+  /// Room for `extra` more indices (plus 16 spare: vector stores) at the cursor.
   std::uint32_t* reserve(std::size_t extra) {
-    if (mUsed + mOpen + extra + 1 > mBuffer.size())
+    if (mUsed + mOpen + extra + 16 > mBuffer.size())
       mBuffer.resize(std::max(2 * mBuffer.size(), mUsed + mOpen + extra + 4096));
     return mBuffer.data() + mUsed + mOpen;
   }

@@ -133,6 +133,7 @@ void OctreeSearch::build(const Vec3r* points, std::size_t count, Real maxSupport
   });
   for (std::size_t k = count; k < count + kScanPadding; ++k)
     mX[k] = mY[k] = mZ[k] = std::numeric_limits<Real>::quiet_NaN();
+  mOrder.resize(count + kScanPadding, kNoIndex);  // read (never reported) by the vector scans
   if (count == 0) return;
 
   // The tree. The root is the cube of the common prefix of all codes (the
@@ -241,6 +242,22 @@ int OctreeSearch::depth() const {
   return deepest;
 }
 
+/// One query() call: the walks of a chunk of queries.
+struct OctreeQuery {
+  const OctreeSearch& tree;
+  const Vec3r* queries;
+  const Real* radii;
+  bool excludeSelf;
+  bool self;
+  const std::uint32_t* queryOrder;
+
+  template <typename Scan>
+  void runChunk(std::uint32_t placeBegin, std::uint32_t placeEnd, ChunkWriter& writer) const;
+};
+
+CASCADE_SEARCH_AVX2_TARGET void runOctreeChunkAvx2(const OctreeQuery& job, std::uint32_t placeBegin,
+                                                    std::uint32_t placeEnd, ChunkWriter& writer);
+
 void OctreeSearch::query(const Vec3r* queries, std::size_t count, const Real* supportRadii,
                          bool excludeSelf, NeighborLists& out) const {
   if (count == 0 || mCount == 0) {
@@ -279,13 +296,26 @@ void OctreeSearch::query(const Vec3r* queries, std::size_t count, const Real* su
   for (std::size_t s = 0; s < count; s += chunkSize) chunkStart.push_back(static_cast<std::uint32_t>(s));
   chunkStart.push_back(static_cast<std::uint32_t>(count));
 
-  const Real* xs = mX.data();
-  const Real* ys = mY.data();
-  const Real* zs = mZ.data();
-  const std::uint32_t* order = mOrder.data();
-  const Node* nodes = mNodes.data();
+  const OctreeQuery job{*this, queries, supportRadii, excludeSelf, self, queryOrder};
+  const bool avx2 = searchUsesAvx2();
   assembleLists(count, queryOrder, chunkStart, scratch, out,
                 [&](std::size_t, std::uint32_t placeBegin, std::uint32_t placeEnd, ChunkWriter& writer) {
+                  if (avx2)
+                    runOctreeChunkAvx2(job, placeBegin, placeEnd, writer);
+                  else
+                    job.runChunk<ScanBaseline>(placeBegin, placeEnd, writer);
+                });
+}
+
+template <typename Scan>
+void OctreeQuery::runChunk(std::uint32_t placeBegin, std::uint32_t placeEnd, ChunkWriter& writer) const {
+    const Real* xs = tree.mX.data();
+    const Real* ys = tree.mY.data();
+    const Real* zs = tree.mZ.data();
+    const std::uint32_t* order = tree.mOrder.data();
+    const OctreeSearch::Node* nodes = tree.mNodes.data();
+    const double* origin = tree.mOrigin;
+    const double scale = tree.mScale;
     std::uint32_t stack[kLevels * 8 + 16];
     for (std::uint32_t s = placeBegin; s < placeEnd; ++s) {
       const std::uint32_t q = queryOrder[s];
@@ -299,7 +329,7 @@ void OctreeSearch::query(const Vec3r* queries, std::size_t count, const Real* su
         qy = queries[q].y();
         qz = queries[q].z();
       }
-      const Real radius = supportRadii ? supportRadii[q] : mRadius;
+      const Real radius = radii ? radii[q] : tree.mRadius;
       const Real radius2 = radius * radius;
       const std::uint32_t exclude = excludeSelf ? q : kNoIndex;
       // The query cube of edge 2 x radius (SEED 2.1: 2 kappa h_i), on the lattice.
@@ -308,8 +338,8 @@ void OctreeSearch::query(const Vec3r* queries, std::size_t count, const Real* su
       std::uint32_t lo[3], hi[3];
       bool empty = !(reach >= 0);
       for (int a = 0; a < 3 && !empty; ++a) {
-        const std::int64_t low = latticeFloor((qpos[a] - reach - mOrigin[a]) * mScale);
-        const std::int64_t high = latticeFloor((qpos[a] + reach - mOrigin[a]) * mScale);
+        const std::int64_t low = latticeFloor((qpos[a] - reach - origin[a]) * scale);
+        const std::int64_t high = latticeFloor((qpos[a] + reach - origin[a]) * scale);
         if (high < 0) empty = true;
         lo[a] = clampLattice(low);
         hi[a] = clampLattice(high);
@@ -318,7 +348,7 @@ void OctreeSearch::query(const Vec3r* queries, std::size_t count, const Real* su
         int top = 0;
         stack[top++] = 0;
         while (top > 0) {
-          const Node& node = nodes[stack[--top]];
+          const OctreeSearch::Node& node = nodes[stack[--top]];
           const std::uint32_t last = (std::uint32_t(1) << (kLevels - node.level)) - 1;
           bool overlap = true, inside = true;
           for (int a = 0; a < 3; ++a) {
@@ -329,7 +359,7 @@ void OctreeSearch::query(const Vec3r* queries, std::size_t count, const Real* su
           if (!overlap) continue;
           if (inside || node.childCount == 0) {
             std::uint32_t* outPtr = writer.reserve(node.end - node.begin);
-            writer.advance(scanRange(xs, ys, zs, order, node.begin, node.end, qx, qy, qz, radius2,
+            writer.advance(Scan::scan(xs, ys, zs, order, node.begin, node.end, qx, qy, qz, radius2,
                                      exclude, outPtr));
             continue;
           }
@@ -338,7 +368,11 @@ void OctreeSearch::query(const Vec3r* queries, std::size_t count, const Real* su
       }
       writer.finishQuery(q);
     }
-  });
+}
+
+CASCADE_SEARCH_AVX2_TARGET void runOctreeChunkAvx2(const OctreeQuery& job, std::uint32_t placeBegin,
+                                                    std::uint32_t placeEnd, ChunkWriter& writer) {
+  job.runChunk<ScanAvx2>(placeBegin, placeEnd, writer);
 }
 
 } // namespace cascade::search

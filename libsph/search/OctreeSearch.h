@@ -64,7 +64,7 @@ public:
   const std::vector<Node>& nodes() const { return mNodes; }
 
 private:
-  std::uint32_t buildNode(std::uint32_t begin, std::uint32_t end, std::vector<Node>& nodes) const;
+  friend struct OctreeQuery;
 
   std::size_t mLeafSize;
   const Vec3r* mPoints = nullptr;

@@ -2,66 +2,137 @@
 /// @brief The inner loop every spatial search shares: test a contiguous run of
 ///        points (positions stored as separate x, y, z arrays, in the search's
 ///        own order) against one query with squaredDistance()'s exact
-///        arithmetic, and append the neighbours' point indices. SSE for float
-///        (four points per step, same operations and order as the scalar code,
-///        so the same bits), scalar otherwise.
+///        arithmetic, and append the neighbours' point indices.
+///
+/// Two implementations with the same result bit for bit (same IEEE single
+/// operations in the same order as squaredDistance(), no fused multiply-add):
+///  - ScanBaseline: SSE2, four points per step, branch-free append;
+///  - ScanAvx2: eight points per step, the neighbours' indices packed with one
+///    permute from a 256-entry table and stored at once.
+/// A search instantiates its query loop for both and picks one at run time
+/// (searchUsesAvx2()), so the library still runs on any x86-64 (or, without
+/// SSE, falls back to scalar code).
 #pragma once
 
 #include "libsph/NeighborSearch.h"
 
 #include <cstdint>
 
-#if defined(__SSE2__) && !defined(CASCADE_DOUBLE)
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__SSE2__) && !defined(CASCADE_DOUBLE) && \
+    (defined(__GNUC__) || defined(__clang__))
 #include <immintrin.h>
-#define CASCADE_SCAN_SSE 1
+#define CASCADE_SCAN_X86 1
 #endif
 
 namespace cascade::search {
 
-/// Arrays read by scanRange() must have this many readable elements past the
-/// last point (vector loads read whole groups of four).
-constexpr std::size_t kScanPadding = 8;
+/// Arrays read by a scan (positions, and the order array) must have this many
+/// readable elements past the last point (vector loads read whole groups).
+constexpr std::size_t kScanPadding = 16;
+/// A scan may write this many entries past the neighbours it reports.
+constexpr std::size_t kScanOverwrite = 8;
 
-/// Tests the points at places [begin, end) against query (qx, qy, qz): writes
-/// order[place] to out for each with squaredDistance(q, p) <= radius2, except
-/// the point index `exclude`, and returns how many it wrote. out must have room
-/// for end - begin + 1 entries.
-inline std::uint32_t scanRange(const Real* xs, const Real* ys, const Real* zs,
-                               const std::uint32_t* order, std::uint32_t begin, std::uint32_t end,
-                               Real qx, Real qy, Real qz, Real radius2, std::uint32_t exclude,
-                               std::uint32_t* out) {
-  std::uint32_t n = 0;
-#ifdef CASCADE_SCAN_SSE
-  const __m128 vx = _mm_set1_ps(qx), vy = _mm_set1_ps(qy), vz = _mm_set1_ps(qz);
-  const __m128 vr2 = _mm_set1_ps(radius2);
-  for (std::uint32_t j = begin; j < end; j += 4) {
-    const __m128 dx = _mm_sub_ps(vx, _mm_loadu_ps(xs + j));
-    const __m128 dy = _mm_sub_ps(vy, _mm_loadu_ps(ys + j));
-    const __m128 dz = _mm_sub_ps(vz, _mm_loadu_ps(zs + j));
-    // ((dx*dx + dy*dy) + dz*dz), the evaluation order of squaredDistance().
-    const __m128 d2 =
-        _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
-    unsigned mask = static_cast<unsigned>(_mm_movemask_ps(_mm_cmple_ps(d2, vr2)));
-    if (end - j < 4) mask &= (1u << (end - j)) - 1u;
-    while (mask) {
-      const unsigned bit = static_cast<unsigned>(__builtin_ctz(mask));
-      mask &= mask - 1;
-      const std::uint32_t index = order[j + bit];
-      out[n] = index;
-      n += (index != exclude);
+/// Tests places [begin, end) against query (qx, qy, qz): writes order[place]
+/// to out for each point with squaredDistance(q, p) <= radius2, except the
+/// point index `exclude`, and returns how many it wrote. out must have room
+/// for end - begin + kScanOverwrite entries.
+struct ScanBaseline {
+  static inline std::uint32_t scan(const Real* xs, const Real* ys, const Real* zs,
+                                   const std::uint32_t* order, std::uint32_t begin,
+                                   std::uint32_t end, Real qx, Real qy, Real qz, Real radius2,
+                                   std::uint32_t exclude, std::uint32_t* out) {
+    std::uint32_t n = 0;
+#ifdef CASCADE_SCAN_X86
+    const __m128 vx = _mm_set1_ps(qx), vy = _mm_set1_ps(qy), vz = _mm_set1_ps(qz);
+    const __m128 vr2 = _mm_set1_ps(radius2);
+    for (std::uint32_t j = begin; j < end; j += 4) {
+      const __m128 dx = _mm_sub_ps(vx, _mm_loadu_ps(xs + j));
+      const __m128 dy = _mm_sub_ps(vy, _mm_loadu_ps(ys + j));
+      const __m128 dz = _mm_sub_ps(vz, _mm_loadu_ps(zs + j));
+      // ((dx*dx + dy*dy) + dz*dz), the evaluation order of squaredDistance().
+      const __m128 d2 =
+          _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+      unsigned mask = static_cast<unsigned>(_mm_movemask_ps(_mm_cmple_ps(d2, vr2)));
+      if (end - j < 4) mask &= (1u << (end - j)) - 1u;
+      for (unsigned lane = 0; lane < 4; ++lane) {
+        const std::uint32_t index = order[j + lane];
+        out[n] = index;
+        n += ((mask >> lane) & 1u) & unsigned(index != exclude);
+      }
     }
-  }
 #else
-  const Vec3r q(qx, qy, qz);
-  for (std::uint32_t j = begin; j < end; ++j) {
-    if (squaredDistance(q, Vec3r(xs[j], ys[j], zs[j])) <= radius2) {
+    const Vec3r q(qx, qy, qz);
+    for (std::uint32_t j = begin; j < end; ++j) {
       const std::uint32_t index = order[j];
       out[n] = index;
-      n += (index != exclude);
+      n += unsigned(squaredDistance(q, Vec3r(xs[j], ys[j], zs[j])) <= radius2) &
+           unsigned(index != exclude);
+    }
+#endif
+    return n;
+  }
+};
+
+#ifdef CASCADE_SCAN_X86
+
+/// compressTable()[mask] lists the lanes set in mask first (for a permute).
+struct CompressTable {
+  alignas(32) std::uint32_t lanes[256][8];
+  CompressTable() {
+    for (unsigned mask = 0; mask < 256; ++mask) {
+      unsigned k = 0;
+      for (unsigned lane = 0; lane < 8; ++lane)
+        if (mask & (1u << lane)) lanes[mask][k++] = lane;
+      for (; k < 8; ++k) lanes[mask][k] = 0;
     }
   }
-#endif
-  return n;
+};
+inline const CompressTable& compressTable() {
+  static const CompressTable table;
+  return table;
 }
+
+struct ScanAvx2 {
+  __attribute__((target("avx2,popcnt"))) static inline std::uint32_t scan(
+      const Real* xs, const Real* ys, const Real* zs, const std::uint32_t* order,
+      std::uint32_t begin, std::uint32_t end, Real qx, Real qy, Real qz, Real radius2,
+      std::uint32_t exclude, std::uint32_t* out) {
+    const auto& table = compressTable().lanes;
+    const __m256 vx = _mm256_set1_ps(qx), vy = _mm256_set1_ps(qy), vz = _mm256_set1_ps(qz);
+    const __m256 vr2 = _mm256_set1_ps(radius2);
+    const __m256i vexclude = _mm256_set1_epi32(static_cast<int>(exclude));
+    std::uint32_t n = 0;
+    for (std::uint32_t j = begin; j < end; j += 8) {
+      const __m256 dx = _mm256_sub_ps(vx, _mm256_loadu_ps(xs + j));
+      const __m256 dy = _mm256_sub_ps(vy, _mm256_loadu_ps(ys + j));
+      const __m256 dz = _mm256_sub_ps(vz, _mm256_loadu_ps(zs + j));
+      const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
+                                      _mm256_mul_ps(dz, dz));
+      const __m256i index = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(order + j));
+      unsigned mask = static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(d2, vr2, _CMP_LE_OQ)));
+      mask &= ~static_cast<unsigned>(
+          _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(index, vexclude))));
+      if (end - j < 8) mask &= (1u << (end - j)) - 1u;
+      const __m256i lanes = _mm256_load_si256(reinterpret_cast<const __m256i*>(table[mask]));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(out + n),
+                          _mm256_permutevar8x32_epi32(index, lanes));
+      n += static_cast<std::uint32_t>(__builtin_popcount(mask));
+    }
+    return n;
+  }
+};
+
+/// Whether this processor runs the AVX2 scan.
+inline bool searchUsesAvx2() {
+  static const bool avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("popcnt");
+  return avx2;
+}
+#define CASCADE_SEARCH_AVX2_TARGET __attribute__((target("avx2,popcnt"), flatten))
+
+#else
+using ScanAvx2 = ScanBaseline;
+inline bool searchUsesAvx2() { return false; }
+#define CASCADE_SEARCH_AVX2_TARGET
+#endif
 
 } // namespace cascade::search

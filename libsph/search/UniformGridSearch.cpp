@@ -103,6 +103,10 @@ void UniformGridSearch::computeFrame(const Vec3r* points, std::size_t count, Rea
     if (!std::isfinite(mOrigin[a])) mOrigin[a] = 0;
     mMaxCell[a] = bounds.empty() ? 0 : clampCell(cellFloor((bounds.hi[a] - mOrigin[a]) * mInvCellSize));
   }
+  const double reach = std::fabs(double(maxSupportRadius)) * (1.0 + kRangeMargin) + kRangeSlack;
+  mSelfStencilOk = reach < cellSize * (1.0 - 1e-9);
+  for (int a = 0; a < 3 && !bounds.empty(); ++a)
+    if (cellFloor((bounds.hi[a] - mOrigin[a]) * mInvCellSize) > kMaxCell) mSelfStencilOk = false;
 }
 
 void UniformGridSearch::build(const Vec3r* points, std::size_t count, Real maxSupportRadius) {
@@ -134,9 +138,12 @@ void UniformGridSearch::build(const Vec3r* points, std::size_t count, Real maxSu
   for (std::size_t k = count; k < count + kPad; ++k)
     mX[k] = mY[k] = mZ[k] = std::numeric_limits<Real>::quiet_NaN();
   buildCells();
+  // Padding read (never reported) by the vector scans.
+  mOrder.resize(count + kPad, kNoIndex);
 }
 
 void UniformGridSearch::sortPoints(const Vec3r* points, std::size_t count, bool sameFrame) {
+  mOrder.resize(mKeys.size());  // drop the scan padding
   // Morton key of every point, by point index.
   std::vector<std::uint64_t>& pointKey = mKeyScratch2;
   pointKey.resize(count);
@@ -248,29 +255,48 @@ void UniformGridSearch::buildCells() {
   }
   mCellStart.push_back(static_cast<std::uint32_t>(n));
   const std::size_t cells = mCellKey.size();
+  const double boxCells = double(mMaxCell[0] + 1) * double(mMaxCell[1] + 1) * double(mMaxCell[2] + 1);
+  mUseDense = boxCells <= std::max(8.0 * double(n), 65536.0);
+  if (mUseDense) {
+    mHash.clear();
+    mDense.assign(static_cast<std::size_t>(boxCells), 0u);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells, 4096), [&](const auto& range) {
+      for (std::size_t c = range.begin(); c != range.end(); ++c) {
+        std::uint32_t x, y, z;
+        mortonDecode(mCellKey[c], x, y, z);
+        mDense[x + std::size_t(mMaxCell[0] + 1) * (y + std::size_t(mMaxCell[1] + 1) * z)] =
+            static_cast<std::uint32_t>(c + 1);
+      }
+    });
+    return;
+  }
+  mDense.clear();
   std::size_t capacity = 16;
   while (capacity < 2 * cells) capacity *= 2;
-  mHashSlots.assign(capacity, 0);
+  mHash.assign(capacity, HashEntry{0, 0});
   mHashMask = capacity - 1;
   for (std::size_t c = 0; c < cells; ++c) {
     std::uint64_t slot = (hashKey(mCellKey[c]) >> 20) & mHashMask;
-    while (mHashSlots[slot] != 0) slot = (slot + 1) & mHashMask;
-    mHashSlots[slot] = static_cast<std::uint32_t>(c + 1);
+    while (mHash[slot].cell != 0) slot = (slot + 1) & mHashMask;
+    mHash[slot] = HashEntry{mCellKey[c], static_cast<std::uint32_t>(c + 1)};
   }
 }
 
-std::int64_t UniformGridSearch::findCell(std::uint64_t key) const {
+std::int64_t UniformGridSearch::findCell(std::uint32_t x, std::uint32_t y, std::uint32_t z) const {
+  if (mUseDense)
+    return std::int64_t(mDense[x + std::size_t(mMaxCell[0] + 1) * (y + std::size_t(mMaxCell[1] + 1) * z)]) - 1;
+  const std::uint64_t key = mortonEncode(x, y, z);
   std::uint64_t slot = (hashKey(key) >> 20) & mHashMask;
   for (;;) {
-    const std::uint32_t entry = mHashSlots[slot];
-    if (entry == 0) return -1;
-    if (mCellKey[entry - 1] == key) return entry - 1;
+    const HashEntry& entry = mHash[slot];
+    if (entry.cell == 0) return -1;
+    if (entry.key == key) return std::int64_t(entry.cell) - 1;
     slot = (slot + 1) & mHashMask;
   }
 }
 
 std::vector<std::size_t> UniformGridSearch::zOrder() const {
-  return std::vector<std::size_t>(mOrder.begin(), mOrder.end());
+  return std::vector<std::size_t>(mOrder.begin(), mOrder.begin() + mCount);
 }
 
 /// One query() call: the queries grouped by cell, processed in parallel chunks.
@@ -305,8 +331,8 @@ struct GridQuery {
                              z = std::int64_t(c[2]) + dz;
           if (x >= 0 && y >= 0 && z >= 0 && x <= grid.mMaxCell[0] && y <= grid.mMaxCell[1] &&
               z <= grid.mMaxCell[2]) {
-            const std::int64_t cell = grid.findCell(mortonEncode(std::uint32_t(x), std::uint32_t(y),
-                                                                 std::uint32_t(z)));
+            const std::int64_t cell =
+                grid.findCell(std::uint32_t(x), std::uint32_t(y), std::uint32_t(z));
             if (cell >= 0) range = {grid.mCellStart[cell], grid.mCellStart[cell + 1]};
           }
           stencil.ranges[slot] = range;
@@ -343,19 +369,21 @@ struct GridQuery {
     for (std::uint32_t z = lo[2]; z <= hi[2]; ++z)
       for (std::uint32_t y = lo[1]; y <= hi[1]; ++y)
         for (std::uint32_t x = lo[0]; x <= hi[0]; ++x) {
-          const std::int64_t cell = grid.findCell(mortonEncode(x, y, z));
+          const std::int64_t cell = grid.findCell(x, y, z);
           if (cell >= 0) emit(grid.mCellStart[cell], grid.mCellStart[cell + 1]);
         }
   }
 
   /// Processes the query places of groups [groupBegin, groupEnd) into buffer;
   /// writes each query's neighbour count to counts[query index].
+  template <typename Scan>
   void runChunk(std::size_t groupBegin, std::size_t groupEnd, ChunkWriter& writer) const {
     Stencil stencil;
     const Real* xs = grid.mX.data();
     const Real* ys = grid.mY.data();
     const Real* zs = grid.mZ.data();
     const std::uint32_t* order = grid.mOrder.data();
+    const bool alwaysStencil = self && !radii && grid.mSelfStencilOk;
     for (std::size_t g = groupBegin; g < groupEnd; ++g) {
       std::uint32_t c[3];
       mortonDecode(groupKey[g], c[0], c[1], c[2]);
@@ -375,6 +403,21 @@ struct GridQuery {
         const Real radius = radii ? radii[q] : grid.mRadius;
         const Real radius2 = radius * radius;
         const std::uint32_t exclude = excludeSelf ? q : kNoIndex;
+        if (alwaysStencil) {
+          // Self query with the build radius: the 27 cells hold every neighbour.
+          if (!haveStencil) {
+            makeStencil(groupKey[g], stencil);
+            haveStencil = true;
+          }
+          std::uint32_t* out = writer.reserve(stencil.candidates);
+          std::uint32_t found = 0;
+          for (int r = 0; r < stencil.mergedCount; ++r)
+            found += Scan::scan(xs, ys, zs, order, stencil.merged[r].begin, stencil.merged[r].end,
+                                qx, qy, qz, radius2, exclude, out + found);
+          writer.advance(found);
+          writer.finishQuery(q);
+          continue;
+        }
         const double reach = std::fabs(double(radius)) * (1.0 + kRangeMargin) + kRangeSlack;
         const double qpos[3] = {double(qx), double(qy), double(qz)};
         std::int64_t lo[3], hi[3], own[3];
@@ -398,7 +441,7 @@ struct GridQuery {
                             hi[1] > own[1] && hi[2] > own[2];
           if (full) {
             for (int r = 0; r < stencil.mergedCount; ++r)
-              found += scanRange(xs, ys, zs, order, stencil.merged[r].begin, stencil.merged[r].end,
+              found += Scan::scan(xs, ys, zs, order, stencil.merged[r].begin, stencil.merged[r].end,
                                  qx, qy, qz, radius2, exclude, out + found);
           } else {
             int slot = 0;
@@ -410,7 +453,7 @@ struct GridQuery {
                     continue;
                   const CellRange& range = stencil.ranges[slot];
                   if (range.end > range.begin)
-                    found += scanRange(xs, ys, zs, order, range.begin, range.end, qx, qy, qz,
+                    found += Scan::scan(xs, ys, zs, order, range.begin, range.end, qx, qy, qz,
                                        radius2, exclude, out + found);
                 }
           }
@@ -424,7 +467,7 @@ struct GridQuery {
           if (!empty)
             scanBox(boxLo, boxHi, [&](std::uint32_t begin, std::uint32_t end) {
               std::uint32_t* out = writer.reserve(end - begin);
-              writer.advance(scanRange(xs, ys, zs, order, begin, end, qx, qy, qz, radius2,
+              writer.advance(Scan::scan(xs, ys, zs, order, begin, end, qx, qy, qz, radius2,
                                        exclude, out));
             });
         }
@@ -434,6 +477,11 @@ struct GridQuery {
     }
   }
 };
+
+CASCADE_SEARCH_AVX2_TARGET void runGridChunkAvx2(const GridQuery& job, std::size_t groupBegin,
+                                                  std::size_t groupEnd, ChunkWriter& writer) {
+  job.runChunk<ScanAvx2>(groupBegin, groupEnd, writer);
+}
 
 void UniformGridSearch::query(const Vec3r* queries, std::size_t count, const Real* supportRadii,
                               bool excludeSelf, NeighborLists& out) const {
@@ -501,9 +549,13 @@ void UniformGridSearch::query(const Vec3r* queries, std::size_t count, const Rea
     }
 
   const GridQuery job{*this, queries, supportRadii, excludeSelf, self, queryOrder, groupStart, groupKey};
+  const bool avx2 = searchUsesAvx2();
   assembleLists(count, queryOrder, chunkStart, scratch, out,
                 [&](std::size_t chunk, std::uint32_t, std::uint32_t, ChunkWriter& writer) {
-                  job.runChunk(chunkGroup[chunk], chunkGroup[chunk + 1], writer);
+                  if (avx2)
+                    runGridChunkAvx2(job, chunkGroup[chunk], chunkGroup[chunk + 1], writer);
+                  else
+                    job.runChunk<ScanBaseline>(chunkGroup[chunk], chunkGroup[chunk + 1], writer);
                 });
 }
 

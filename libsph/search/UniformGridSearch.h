@@ -64,7 +64,8 @@ private:
   void computeFrame(const Vec3r* points, std::size_t count, Real maxSupportRadius);
   void sortPoints(const Vec3r* points, std::size_t count, bool sameFrame);
   void buildCells();
-  std::int64_t findCell(std::uint64_t key) const;
+  /// Index of the occupied cell at (x, y, z), or -1.
+  std::int64_t findCell(std::uint32_t x, std::uint32_t y, std::uint32_t z) const;
 
   friend struct GridQuery;
 
@@ -82,13 +83,24 @@ private:
   std::vector<Real> mX, mY, mZ;        ///< positions per place (padded)
   std::vector<std::uint32_t> mCellStart;  ///< first place of each occupied cell, plus the end
   std::vector<std::uint64_t> mCellKey;    ///< Morton key of each occupied cell
-  std::vector<std::uint32_t> mHashSlots;  ///< open addressing: cell index + 1, 0 empty
+  // Cell lookup: a dense table over the occupied box when it is small enough
+  // (compact fluid), else a hash table (open addressing) on the Morton key.
+  struct HashEntry {
+    std::uint64_t key;
+    std::uint32_t cell;  ///< cell index + 1, 0 empty
+  };
+  std::vector<std::uint32_t> mDense;  ///< cell index + 1 per (x, y, z), 0 empty
+  bool mUseDense = false;
+  std::vector<HashEntry> mHash;
   std::uint64_t mHashMask = 0;
 
   bool mIncremental = true;
   bool mLastIncremental = false;
   std::size_t mLastMoved = 0;
   bool mHaveFrame = false;
+  /// Every point's cell is unclamped and the build radius reaches at most one
+  /// cell: a self query with the build radius needs only the 27 cells.
+  bool mSelfStencilOk = false;
 
   // Scratch reused between builds and queries.
   std::vector<std::uint64_t> mKeyScratch, mKeyScratch2;

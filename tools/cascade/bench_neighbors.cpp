@@ -1,11 +1,148 @@
+// `cascade bench neighbors`: build and query times of every neighbour search
+// method on a dam-break block (a jittered lattice column, height = 2 x width as
+// in Martin & Moyce's n^2 = 2), support radius 2.1 spacings (about 30-40
+// neighbours per particle), 10k, 100k and 1M particles.
+//
+// The particles are first put in Z-order (Particles::permute(zOrder()), as the
+// solver does every few steps); each time is the best of several repetitions
+// (the machine is shared). Rows:
+//   <method>              full build() from scratch + self query() with lists;
+//   grid-incremental      build() after every particle moved by up to 0.05
+//                         spacing (a time step), reusing the previous order;
+//   octree-bucket8        the octree with leaves of up to 8 particles (the
+//                         faithful "octree" splits to one particle per leaf).
+// Brute force runs up to 100k only.
 #include "Benchmarks.h"
 
-#include "libsph/Errors.h"
+#include "libsph/NeighborSearch.h"
+#include "libsph/search/OctreeSearch.h"
+#include "libsph/search/UniformGridSearch.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <functional>
+#include <random>
 
 namespace cascade::cli {
 
+namespace {
+
+double millisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+/// A dam-break column of about `target` particles: width m, depth m, height 2m.
+std::vector<Vec3r> damBreakBlock(std::size_t target, Real spacing, unsigned seed) {
+  int m = 1;
+  while (2.0 * double(m + 1) * (m + 1) * (m + 1) <= double(target)) ++m;
+  if (std::abs(2.0 * (m + 1) * (m + 1) * (m + 1) - double(target)) <
+      std::abs(2.0 * m * m * m - double(target)))
+    ++m;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<Real> jitter(-Real(0.1) * spacing, Real(0.1) * spacing);
+  std::vector<Vec3r> points;
+  points.reserve(std::size_t(2) * m * m * m);
+  for (int k = 0; k < 2 * m; ++k)
+    for (int j = 0; j < m; ++j)
+      for (int i = 0; i < m; ++i)
+        points.emplace_back(i * spacing + jitter(rng), j * spacing + jitter(rng),
+                            k * spacing + jitter(rng));
+  return points;
+}
+
+void zOrderPoints(std::vector<Vec3r>& points, Real radius) {
+  search::UniformGridSearch grid;
+  grid.build(points.data(), points.size(), radius);
+  const auto order = grid.zOrder();
+  std::vector<Vec3r> sorted(points.size());
+  for (std::size_t k = 0; k < order.size(); ++k) sorted[k] = points[order[k]];
+  points.swap(sorted);
+}
+
+struct Timing {
+  double buildMs = 1e300, queryMs = 1e300;
+  std::size_t pairs = 0;
+};
+
+} // namespace
+
 BenchTable benchNeighbors() {
-  throw NotImplementedError("bench neighbors: not implemented yet (issue #2)");
+  BenchTable table("neighbors", {"method", "n", "build_ms", "query_ms", "ns_per_particle",
+                                 "neighbors_per_particle"});
+  const Real spacing = Real(0.01);
+  const Real radius = Real(2.1) * spacing;
+  const std::size_t sizes[] = {10000, 100000, 1000000};
+
+  auto addRow = [&](const std::string& method, std::size_t n, const Timing& t) {
+    table.addRow({method, static_cast<long long>(n), t.buildMs, t.queryMs,
+                  (t.buildMs + t.queryMs) * 1e6 / double(n), double(t.pairs) / double(n)});
+    std::fprintf(stderr, "  %-18s n=%-8zu build %.2f ms, query %.2f ms\n", method.c_str(), n,
+                 t.buildMs, t.queryMs);
+  };
+
+  for (const std::size_t target : sizes) {
+    std::vector<Vec3r> points = damBreakBlock(target, spacing, 1);
+    zOrderPoints(points, radius);
+    const std::size_t n = points.size();
+    const int repetitions = n <= 100000 ? 7 : 5;
+
+    // Full build + query, best of `repetitions`.
+    auto measure = [&](NeighborSearch& search, int reps) {
+      Timing t;
+      NeighborLists lists;
+      for (int r = 0; r < reps; ++r) {
+        auto start = std::chrono::steady_clock::now();
+        search.build(points.data(), n, radius);
+        t.buildMs = std::min(t.buildMs, millisecondsSince(start));
+        start = std::chrono::steady_clock::now();
+        search.query(points.data(), n, nullptr, true, lists);
+        t.queryMs = std::min(t.queryMs, millisecondsSince(start));
+      }
+      t.pairs = lists.totalCount();
+      return t;
+    };
+
+    if (n <= 100000) {
+      BruteForceSearch brute;
+      addRow("brute", n, measure(brute, n <= 10000 ? 3 : 1));
+    }
+    {
+      search::UniformGridSearch grid;
+      grid.setIncrementalBuild(false);
+      addRow("grid", n, measure(grid, repetitions));
+    }
+    {
+      // One time step: every particle moves by up to 0.05 spacing per axis.
+      search::UniformGridSearch grid;
+      std::vector<Vec3r> moved = points;
+      std::mt19937 rng(2);
+      std::uniform_real_distribution<Real> step(-Real(0.05) * spacing, Real(0.05) * spacing);
+      for (auto& p : moved) p += Vec3r(step(rng), step(rng), step(rng));
+      Timing t;
+      NeighborLists lists;
+      for (int r = 0; r < repetitions; ++r) {
+        grid.build(points.data(), n, radius);
+        auto start = std::chrono::steady_clock::now();
+        grid.build(moved.data(), n, radius);
+        t.buildMs = std::min(t.buildMs, millisecondsSince(start));
+        start = std::chrono::steady_clock::now();
+        grid.query(moved.data(), n, nullptr, true, lists);
+        t.queryMs = std::min(t.queryMs, millisecondsSince(start));
+      }
+      t.pairs = lists.totalCount();
+      addRow(grid.lastBuildWasIncremental() ? "grid-incremental" : "grid-incremental(fell back)", n, t);
+    }
+    {
+      search::OctreeSearch octree;
+      addRow("octree", n, measure(octree, repetitions));
+    }
+    {
+      search::OctreeSearch octree(8);
+      addRow("octree-bucket8", n, measure(octree, repetitions));
+    }
+  }
+  return table;
 }
 
 } // namespace cascade::cli
