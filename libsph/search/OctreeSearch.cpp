@@ -78,6 +78,46 @@ inline void cubeCorner(std::uint64_t key, int level, std::uint32_t corner[3]) {
   mortonDecode(prefix, corner[0], corner[1], corner[2]);
 }
 
+/// Which of eight node boxes (lo/hi arrays from `first`) meet the query box.
+struct BoxFilterBaseline {
+  static inline unsigned mask8(const std::uint32_t* const lo[3], const std::uint32_t* const hi[3],
+                               std::size_t first, const std::uint32_t queryLo[3],
+                               const std::uint32_t queryHi[3]) {
+    unsigned mask = 0;
+    for (unsigned k = 0; k < 8; ++k) {
+      const std::size_t c = first + k;
+      const bool meets = lo[0][c] <= queryHi[0] && hi[0][c] >= queryLo[0] && lo[1][c] <= queryHi[1] &&
+                         hi[1][c] >= queryLo[1] && lo[2][c] <= queryHi[2] && hi[2][c] >= queryLo[2];
+      mask |= unsigned(meets) << k;
+    }
+    return mask;
+  }
+};
+
+#ifdef CASCADE_SCAN_X86
+struct BoxFilterAvx2 {
+  // Lattice coordinates are below 2^21 (and the padding 2^30): signed compares are exact.
+  __attribute__((target("avx2"))) static inline unsigned mask8(const std::uint32_t* const lo[3],
+                                                               const std::uint32_t* const hi[3],
+                                                               std::size_t first,
+                                                               const std::uint32_t queryLo[3],
+                                                               const std::uint32_t queryHi[3]) {
+    __m256i outside = _mm256_setzero_si256();
+    for (int a = 0; a < 3; ++a) {
+      const __m256i nodeLo = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(lo[a] + first));
+      const __m256i nodeHi = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(hi[a] + first));
+      outside = _mm256_or_si256(
+          outside, _mm256_cmpgt_epi32(nodeLo, _mm256_set1_epi32(static_cast<int>(queryHi[a]))));
+      outside = _mm256_or_si256(
+          outside, _mm256_cmpgt_epi32(_mm256_set1_epi32(static_cast<int>(queryLo[a])), nodeHi));
+    }
+    return ~static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(outside))) & 0xffu;
+  }
+};
+#else
+using BoxFilterAvx2 = BoxFilterBaseline;
+#endif
+
 } // namespace
 
 void OctreeSearch::build(const Vec3r* points, std::size_t count, Real maxSupportRadius) {
@@ -251,7 +291,7 @@ struct OctreeQuery {
   bool self;
   const std::uint32_t* queryOrder;
 
-  template <typename Scan>
+  template <typename Scan, typename BoxFilter, bool MergeRuns = true>
   void runChunk(std::uint32_t placeBegin, std::uint32_t placeEnd, ChunkWriter& writer) const;
 };
 
@@ -303,76 +343,188 @@ void OctreeSearch::query(const Vec3r* queries, std::size_t count, const Real* su
                   if (avx2)
                     runOctreeChunkAvx2(job, placeBegin, placeEnd, writer);
                   else
-                    job.runChunk<ScanBaseline>(placeBegin, placeEnd, writer);
+                    job.runChunk<ScanBaseline, BoxFilterBaseline>(placeBegin, placeEnd, writer);
                 });
 }
 
-template <typename Scan>
+template <typename Scan, typename BoxFilter, bool MergeRuns>
 void OctreeQuery::runChunk(std::uint32_t placeBegin, std::uint32_t placeEnd, ChunkWriter& writer) const {
-    const Real* xs = tree.mX.data();
-    const Real* ys = tree.mY.data();
-    const Real* zs = tree.mZ.data();
-    const std::uint32_t* order = tree.mOrder.data();
-    const OctreeSearch::Node* nodes = tree.mNodes.data();
-    const double* origin = tree.mOrigin;
-    const double scale = tree.mScale;
-    std::uint32_t stack[kLevels * 8 + 16];
-    for (std::uint32_t s = placeBegin; s < placeEnd; ++s) {
-      const std::uint32_t q = queryOrder[s];
-      Real qx, qy, qz;
-      if (self) {
-        qx = xs[s];
-        qy = ys[s];
-        qz = zs[s];
-      } else {
-        qx = queries[q].x();
-        qy = queries[q].y();
-        qz = queries[q].z();
+  const Real* xs = tree.mX.data();
+  const Real* ys = tree.mY.data();
+  const Real* zs = tree.mZ.data();
+  const std::uint32_t* order = tree.mOrder.data();
+  const OctreeSearch::Node* nodes = tree.mNodes.data();
+  const double* origin = tree.mOrigin;
+  const double scale = tree.mScale;
+
+  // A few consecutive queries (neighbours along the Z curve) walk the tree
+  // together with the box around all their cubes; the walk collects the nodes
+  // it reaches (leaves, and nodes inside that box), then each query keeps those
+  // whose cube overlaps its own cube and tests their particles exactly. The
+  // result is the per-query walk's: a particle is tested iff its leaf or an
+  // ancestor overlaps the query's cube.
+  constexpr int kGroup = 64;
+  struct Query {
+    Real x, y, z, radius2;
+    std::uint32_t index, exclude;
+    std::uint32_t lo[3], hi[3];
+    bool empty;
+  };
+  Query group[kGroup];
+  std::vector<std::uint32_t> runBegins, runEnds;
+  std::vector<std::uint32_t> candidateLo[3], candidateHi[3];
+  std::uint32_t stack[kLevels * 8 + 16];
+
+  auto makeQuery = [&](std::uint32_t place, Query& query) {
+    const std::uint32_t q = queryOrder[place];
+    query.index = q;
+    if (self) {
+      query.x = xs[place];
+      query.y = ys[place];
+      query.z = zs[place];
+    } else {
+      query.x = queries[q].x();
+      query.y = queries[q].y();
+      query.z = queries[q].z();
+    }
+    const Real radius = radii ? radii[q] : tree.mRadius;
+    query.radius2 = radius * radius;
+    query.exclude = excludeSelf ? q : kNoIndex;
+    // The query cube of edge 2 x radius (SEED 2.1: 2 kappa h_i), on the lattice.
+    const double reach = std::fabs(double(radius)) * (1.0 + kRangeMargin) + kRangeSlack;
+    const double position[3] = {double(query.x), double(query.y), double(query.z)};
+    query.empty = !(reach >= 0);
+    for (int a = 0; a < 3; ++a) {
+      const std::int64_t low = latticeFloor((position[a] - reach - origin[a]) * scale);
+      const std::int64_t high = latticeFloor((position[a] + reach - origin[a]) * scale);
+      if (high < 0) query.empty = true;
+      query.lo[a] = clampLattice(low);
+      query.hi[a] = clampLattice(high);
+    }
+  };
+  auto volume = [](const std::uint32_t lo[3], const std::uint32_t hi[3]) {
+    return double(hi[0] - lo[0] + 1) * double(hi[1] - lo[1] + 1) * double(hi[2] - lo[2] + 1);
+  };
+
+  std::uint32_t place = placeBegin;
+  while (place < placeEnd) {
+    // Gather the group: stop when the joint box grows past 8 times the first cube.
+    int size = 0;
+    std::uint32_t lo[3], hi[3];
+    makeQuery(place, group[0]);
+    if (group[0].empty) {
+      writer.finishQuery(group[0].index);
+      ++place;
+      continue;
+    }
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = group[0].lo[a];
+      hi[a] = group[0].hi[a];
+    }
+    const double limit = 8.0 * volume(lo, hi);
+    size = 1;
+    while (size < kGroup && place + size < placeEnd) {
+      Query& next = group[size];
+      makeQuery(place + size, next);
+      if (next.empty) break;
+      std::uint32_t newLo[3], newHi[3];
+      for (int a = 0; a < 3; ++a) {
+        newLo[a] = std::min(lo[a], next.lo[a]);
+        newHi[a] = std::max(hi[a], next.hi[a]);
       }
-      const Real radius = radii ? radii[q] : tree.mRadius;
-      const Real radius2 = radius * radius;
-      const std::uint32_t exclude = excludeSelf ? q : kNoIndex;
-      // The query cube of edge 2 x radius (SEED 2.1: 2 kappa h_i), on the lattice.
-      const double reach = std::fabs(double(radius)) * (1.0 + kRangeMargin) + kRangeSlack;
-      const double qpos[3] = {double(qx), double(qy), double(qz)};
-      std::uint32_t lo[3], hi[3];
-      bool empty = !(reach >= 0);
-      for (int a = 0; a < 3 && !empty; ++a) {
-        const std::int64_t low = latticeFloor((qpos[a] - reach - origin[a]) * scale);
-        const std::int64_t high = latticeFloor((qpos[a] + reach - origin[a]) * scale);
-        if (high < 0) empty = true;
-        lo[a] = clampLattice(low);
-        hi[a] = clampLattice(high);
+      if (volume(newLo, newHi) > limit) break;
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = newLo[a];
+        hi[a] = newHi[a];
       }
-      if (!empty) {
-        int top = 0;
-        stack[top++] = 0;
-        while (top > 0) {
-          const OctreeSearch::Node& node = nodes[stack[--top]];
-          const std::uint32_t last = (std::uint32_t(1) << (kLevels - node.level)) - 1;
-          bool overlap = true, inside = true;
+      ++size;
+    }
+
+    // Walk the tree with the joint box.
+    runBegins.clear();
+    runEnds.clear();
+    for (auto& v : candidateLo) v.clear();
+    for (auto& v : candidateHi) v.clear();
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const std::uint32_t nodeIndex = stack[--top];
+      const OctreeSearch::Node& node = nodes[nodeIndex];
+      const std::uint32_t last = (std::uint32_t(1) << (kLevels - node.level)) - 1;
+      bool overlap = true, inside = true;
+      for (int a = 0; a < 3; ++a) {
+        const std::uint32_t nodeLo = node.corner[a], nodeHi = node.corner[a] + last;
+        overlap &= nodeLo <= hi[a] && nodeHi >= lo[a];
+        inside &= nodeLo >= lo[a] && nodeHi <= hi[a];
+      }
+      if (!overlap) continue;
+      if (inside || node.childCount == 0) {
+        // Nodes reached one after the other along the curve are usually
+        // contiguous places: one run, with the box around both.
+        if (MergeRuns && !runEnds.empty() && runEnds.back() == node.begin) {
+          runEnds.back() = node.end;
           for (int a = 0; a < 3; ++a) {
-            const std::uint32_t nodeLo = node.corner[a], nodeHi = node.corner[a] + last;
-            overlap &= nodeLo <= hi[a] && nodeHi >= lo[a];
-            inside &= nodeLo >= lo[a] && nodeHi <= hi[a];
+            candidateLo[a].back() = std::min(candidateLo[a].back(), node.corner[a]);
+            candidateHi[a].back() = std::max(candidateHi[a].back(), node.corner[a] + last);
           }
-          if (!overlap) continue;
-          if (inside || node.childCount == 0) {
-            std::uint32_t* outPtr = writer.reserve(node.end - node.begin);
-            writer.advance(Scan::scan(xs, ys, zs, order, node.begin, node.end, qx, qy, qz, radius2,
-                                     exclude, outPtr));
-            continue;
+          continue;
+        }
+        runBegins.push_back(node.begin);
+        runEnds.push_back(node.end);
+        for (int a = 0; a < 3; ++a) {
+          candidateLo[a].push_back(node.corner[a]);
+          candidateHi[a].push_back(node.corner[a] + last);
+        }
+        continue;
+      }
+      for (int c = node.childCount - 1; c >= 0; --c) stack[top++] = node.firstChild + c;
+    }
+
+    // Each query: the collected nodes that meet its cube, then exact tests.
+    // Collected nodes are in curve order, so runs of them that meet the cube
+    // are usually contiguous places: scanned as one range.
+    const std::size_t candidateCount = runBegins.size();
+    for (int a = 0; a < 3; ++a)
+      for (int pad = 0; pad < 8; ++pad) {
+        candidateLo[a].push_back(1u << 30);  // meets no query box
+        candidateHi[a].push_back(0);
+      }
+    const std::uint32_t* const boxLo[3] = {candidateLo[0].data(), candidateLo[1].data(),
+                                           candidateLo[2].data()};
+    const std::uint32_t* const boxHi[3] = {candidateHi[0].data(), candidateHi[1].data(),
+                                           candidateHi[2].data()};
+    for (int g = 0; g < size; ++g) {
+      const Query& query = group[g];
+      std::uint32_t runBegin = 0, runEnd = 0;
+      auto flush = [&] {
+        if (runEnd == runBegin) return;
+        std::uint32_t* out = writer.reserve(runEnd - runBegin);
+        writer.advance(Scan::scan(xs, ys, zs, order, runBegin, runEnd, query.x, query.y, query.z,
+                                  query.radius2, query.exclude, out));
+      };
+      for (std::size_t first = 0; first < candidateCount; first += 8) {
+        unsigned mask = BoxFilter::mask8(boxLo, boxHi, first, query.lo, query.hi);
+        while (mask) {
+          const unsigned bit = static_cast<unsigned>(__builtin_ctz(mask));
+          mask &= mask - 1;
+          const std::uint32_t begin = runBegins[first + bit], end = runEnds[first + bit];
+          if (begin != runEnd) {
+            flush();
+            runBegin = begin;
           }
-          for (int c = node.childCount - 1; c >= 0; --c) stack[top++] = node.firstChild + c;
+          runEnd = end;
         }
       }
-      writer.finishQuery(q);
+      flush();
+      writer.finishQuery(query.index);
     }
+    place += size;
+  }
 }
 
 CASCADE_SEARCH_AVX2_TARGET void runOctreeChunkAvx2(const OctreeQuery& job, std::uint32_t placeBegin,
                                                     std::uint32_t placeEnd, ChunkWriter& writer) {
-  job.runChunk<ScanAvx2>(placeBegin, placeEnd, writer);
+  job.runChunk<ScanAvx2, BoxFilterAvx2>(placeBegin, placeEnd, writer);
 }
 
 } // namespace cascade::search
