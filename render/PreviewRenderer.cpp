@@ -112,12 +112,12 @@ void solidLook(const std::string& groupName, int obstacleIndex, Eigen::Vector3f&
   const std::string name = lowercase(groupName);
   cutaway = false;
   if (contains(name, "tank") || contains(name, "container") || contains(name, "domain")) {
-    color = {0.46f, 0.47f, 0.48f};
+    color = {0.36f, 0.37f, 0.38f};
     cutaway = true;
   } else if (contains(name, "ground") || contains(name, "floor") || contains(name, "plane")) {
     color = {0.50f, 0.49f, 0.46f};
   } else if (contains(name, "slope") || contains(name, "ramp")) {
-    color = {0.64f, 0.56f, 0.44f};
+    color = {0.56f, 0.49f, 0.39f};
   } else {
     color = palette[obstacleIndex % 4];
   }
@@ -135,7 +135,7 @@ struct PreviewRenderer::Impl {
   GlFunctions gl;
   std::string description;
 
-  Program depthProgram, skyProgram, groundProgram, solidProgram, waterBufferProgram, waterMaskProgram,
+  Program depthProgram, solidShadowProgram, skyProgram, groundProgram, solidProgram, waterBufferProgram, waterMaskProgram,
       waterShadeProgram, sphereProgram, sphereShadowProgram, toneMapProgram;
 
   GLuint emptyVao = 0, fluidVao = 0, solidsVao = 0, groundVao = 0, sphereVao = 0;
@@ -146,7 +146,7 @@ struct PreviewRenderer::Impl {
   std::size_t solidsKeyTriangles = 0, solidsKeyVertices = 0;
   Eigen::Vector3f solidsKeyFirst = Eigen::Vector3f::Zero();
 
-  GLuint shadowFbo = 0, shadowTexture = 0;
+  GLuint shadowFbo = 0, shadowTexture = 0, waterShadowFbo = 0, waterShadowTexture = 0;
   GLuint msFbo = 0, msColor = 0, msDepth = 0;
   GLuint resolveFbo = 0, resolveColor = 0, resolveDepth = 0;
   // Water buffers, single-sampled at waterScale x the internal resolution
@@ -215,6 +215,7 @@ PreviewRenderer::Impl::Impl(int w, int h, int samples, RenderLook renderLook)
 
   using namespace shaders;
   depthProgram = link(kDepthVertex, kDepthFragment, false);
+  solidShadowProgram = link(kMeshVertex, kSolidShadowFragment, false);
   skyProgram = link(kFullscreenVertex, kSkyFragment, true);
   groundProgram = link(kMeshVertex, kGroundFragment, true);
   solidProgram = link(kMeshVertex, kSolidFragment, true);
@@ -377,6 +378,13 @@ void PreviewRenderer::Impl::createTargets() {
   gl.glDrawBuffer(GL_NONE);
   gl.glReadBuffer(GL_NONE);
   checkFramebuffer("shadow");
+  waterShadowTexture = depthTexture(kShadowMapSize, kShadowMapSize, true);
+  gl.glGenFramebuffers(1, &waterShadowFbo);
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, waterShadowFbo);
+  gl.glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, waterShadowTexture, 0);
+  gl.glDrawBuffer(GL_NONE);
+  gl.glReadBuffer(GL_NONE);
+  checkFramebuffer("water shadow");
 
   // Multisampled HDR scene: 0 opaque colour (alpha = coverage), 1 water
   // normal and coverage, 2 water eye depth; and depth.
@@ -712,6 +720,8 @@ Image PreviewRenderer::Impl::render(const FrameScene& scene) {
     gl.glUniform3fv(location(p, "uLightRadiance"), kMaxLights, lightRadiance);
     gl.glUniform1fv(location(p, "uLightReference"), kMaxLights, lightReference);
     setInt(p, "uShadowMap", 0);
+    setInt(p, "uWaterShadowMap", 6);
+    setInt(p, "uWaterShadows", lightCount > 0 && fluidIndexCount > 0 ? 1 : 0);
     setMatrix(p, "uShadowMatrix", shadowMatrix);
     setFloat(p, "uShadowTexel", 1.0f / kShadowMapSize);
     setFloat(p, "uShadowBias", std::min(0.02f, 0.004f * allRadius / shadowDepthSpan + 1e-4f));
@@ -757,16 +767,12 @@ Image PreviewRenderer::Impl::render(const FrameScene& scene) {
     gl.glBindTexture(GL_TEXTURE_2D, 0);  // the shadow map is the target now
     gl.glEnable(GL_POLYGON_OFFSET_FILL);
     gl.glPolygonOffset(1.5f, 2.0f);
-    gl.glUseProgram(depthProgram.id);
-    setMatrix(depthProgram, "uViewProjection", shadowViewProjection);
-    if (solidsVertexCount) drawSolids();
-    if (fluidIndexCount) {  // a closed surface casts the same shadow from its back faces alone
-      gl.glEnable(GL_CULL_FACE);
-      gl.glFrontFace(clockwise ? GL_CW : GL_CCW);
-      gl.glCullFace(GL_FRONT);
-      drawFluid();
-      gl.glDisable(GL_CULL_FACE);
-      gl.glFrontFace(GL_CCW);
+    if (solidsVertexCount) {
+      gl.glUseProgram(solidShadowProgram.id);
+      setMatrix(solidShadowProgram, "uViewProjection", shadowViewProjection);
+      setFloat(solidShadowProgram, "uNormalSign", 1.0f);
+      setVec3(solidShadowProgram, "uCameraPosition", camera.position);
+      drawSolids();
     }
     if (sphereCount) {
       gl.glUseProgram(sphereShadowProgram.id);
@@ -777,9 +783,24 @@ Image PreviewRenderer::Impl::render(const FrameScene& scene) {
       setFloat(sphereShadowProgram, "uRadius", sphereRadius);
       drawSpheres();
     }
+    if (fluidIndexCount) {  // water's own map: it shadows only in part
+      gl.glBindFramebuffer(GL_FRAMEBUFFER, waterShadowFbo);
+      gl.glClear(GL_DEPTH_BUFFER_BIT);
+      gl.glUseProgram(depthProgram.id);
+      setMatrix(depthProgram, "uViewProjection", shadowViewProjection);
+      gl.glEnable(GL_CULL_FACE);  // a closed surface casts the same shadow from its back faces alone
+      gl.glFrontFace(clockwise ? GL_CW : GL_CCW);
+      gl.glCullFace(GL_FRONT);
+      drawFluid();
+      gl.glDisable(GL_CULL_FACE);
+      gl.glFrontFace(GL_CCW);
+    }
     gl.glDisable(GL_POLYGON_OFFSET_FILL);
     gl.glBindTexture(GL_TEXTURE_2D, shadowTexture);
   }
+  gl.glActiveTexture(GL_TEXTURE6);
+  gl.glBindTexture(GL_TEXTURE_2D, waterShadowTexture);
+  gl.glActiveTexture(GL_TEXTURE0);
   mark("shadow");
 
   // --- 2. opaque pass ------------------------------------------------------
@@ -920,6 +941,9 @@ Image PreviewRenderer::Impl::render(const FrameScene& scene) {
     setVec3(waterShadeProgram, "uCameraForward", camera.forward());
     setVec3(waterShadeProgram, "uDeepWaterColor", look.deepWaterColor);
     setVec3(waterShadeProgram, "uAbsorption", look.absorption);
+    const float stageHeight = stage.sizes().z();
+    setFloat(waterShadeProgram, "uAbsorptionLength",
+             0.1f * (stageHeight > 0.05f * stageRadius ? stageHeight : stageRadius));
     setFloat(waterShadeProgram, "uRefraction", 0.035f);
     gl.glDrawArrays(GL_TRIANGLES, 0, 3);
     gl.glDepthFunc(GL_LESS);

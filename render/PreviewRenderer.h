@@ -16,6 +16,7 @@
 ///     offset by the view-space normal), attenuated by Beer-Lambert absorption
 ///     over the water thickness (back-face or opaque depth minus front depth)
 ///     with in-scattered deep-water colour; normalised Blinn-Phong sun glints;
+///     the water has its own shadow map and lets 45 % of the key light through;
 ///  5. multisample resolve, filmic tone curve (Narkowicz's ACES fit), sRGB
 ///     encoding, optional supersampling box filter, read back to an Image.
 /// The image alpha is the coverage of fluid, solids and particles (0 over sky
@@ -49,9 +50,10 @@ struct RenderLook {
   bool drawSky = true;     ///< false: flat background colour
   Eigen::Vector3f background{0.5f, 0.6f, 0.7f};      ///< when drawSky is false
   Eigen::Vector3f deepWaterColor{0.015f, 0.10f, 0.13f};  ///< in-scattered colour of thick water
-  /// Absorption per stage radius (red, green, blue): transmittance through a
-  /// thickness t is exp(-absorption * t / stageRadius).
-  Eigen::Vector3f absorption{5.0f, 1.6f, 1.1f};
+  /// Absorption (red, green, blue) per absorption length L = 0.1 x the stage
+  /// height: transmittance through a thickness t is exp(-absorption * t / L).
+  /// Stylised (real water is far clearer) so that thin sheets read as water.
+  Eigen::Vector3f absorption{2.2f, 0.6f, 0.45f};
   float exposure = 0.85f;
 };
 

@@ -12,7 +12,9 @@ uniform vec3 uLightVector[4];
 uniform int uLightIsPoint[4];
 uniform vec3 uLightRadiance[4];
 uniform float uLightReference[4];   // point lights: squared reference distance
-uniform sampler2DShadow uShadowMap;
+uniform sampler2DShadow uShadowMap;       // solids and particles
+uniform sampler2DShadow uWaterShadowMap;  // the fluid surface
+uniform int uWaterShadows;
 uniform mat4 uShadowMatrix;         // world -> shadow texture [0,1]^3
 uniform float uShadowTexel;
 uniform float uShadowBias;
@@ -59,16 +61,23 @@ vec3 ambientLight(vec3 n) {
 
 // Percentage-closer filtering: four hardware-compared bilinear lookups at
 // half-texel offsets, together a smooth 3x3-texel tent (Reeves et al. 1987).
+float filteredShadow(sampler2DShadow map, vec3 s) {
+  float reference = s.z - uShadowBias;
+  float h = 0.5 * uShadowTexel;
+  return 0.25 * (texture(map, vec3(s.xy + vec2(-h, -h), reference)) +
+                 texture(map, vec3(s.xy + vec2(h, -h), reference)) +
+                 texture(map, vec3(s.xy + vec2(-h, h), reference)) +
+                 texture(map, vec3(s.xy + vec2(h, h), reference)));
+}
+
+// Key light visibility: opaque casters block it, water lets 45 % through.
 float shadowFactor(vec3 p, vec3 n) {
   vec4 s = uShadowMatrix * vec4(p + n * uShadowTexel * 1.5 * uStageRadius, 1.0);
   s.xyz /= s.w;
   if (any(lessThan(s.xyz, vec3(0.0))) || any(greaterThan(s.xyz, vec3(1.0)))) return 1.0;
-  float reference = s.z - uShadowBias;
-  float h = 0.5 * uShadowTexel;
-  return 0.25 * (texture(uShadowMap, vec3(s.xy + vec2(-h, -h), reference)) +
-                 texture(uShadowMap, vec3(s.xy + vec2(h, -h), reference)) +
-                 texture(uShadowMap, vec3(s.xy + vec2(-h, h), reference)) +
-                 texture(uShadowMap, vec3(s.xy + vec2(h, h), reference)));
+  float solid = filteredShadow(uShadowMap, s.xyz);
+  float water = uWaterShadows != 0 ? filteredShadow(uWaterShadowMap, s.xyz) : 1.0;
+  return solid * (1.0 - 0.55 * (1.0 - water));
 }
 
 vec3 lightDirection(int i, vec3 p, out vec3 radiance) {
@@ -132,6 +141,26 @@ void main() { gl_Position = uViewProjection * vec4(aPosition, 1.0); }
 
 const char* const kDepthFragment = R"(
 void main() {}
+)";
+
+// Solids into the shadow map, minus the faces cut away for the camera (they
+// are not drawn, so they cast no shadow either).
+const char* const kSolidShadowFragment = R"(
+in vec3 vWorld;
+in vec3 vNormal;
+in vec3 vColor;
+in vec4 vCutaway;
+uniform vec3 uCameraPosition;
+void main() {
+  if (vCutaway.w > 0.0) {
+    vec3 faceNormal = cross(dFdx(vWorld), dFdy(vWorld));
+    if (dot(faceNormal, faceNormal) > 0.0) {
+      float cameraSide = dot(faceNormal, uCameraPosition - vWorld);
+      float centerSide = dot(faceNormal, vCutaway.xyz - vWorld);
+      if (cameraSide * centerSide < 0.0) discard;
+    }
+  }
+}
 )";
 
 const char* const kFullscreenVertex = R"(
@@ -244,7 +273,8 @@ uniform mat4 uView;
 uniform mat4 uInverseViewProjection;
 uniform vec3 uCameraForward;
 uniform vec3 uDeepWaterColor;
-uniform vec3 uAbsorption;          // per stage radius
+uniform vec3 uAbsorption;          // per absorption length
+uniform float uAbsorptionLength;   // m
 uniform float uRefraction;         // screen-space offset scale
 out vec4 fragColor;
 
@@ -264,7 +294,7 @@ vec3 shadeWater(vec2 uv, vec3 n, float front) {
   float back = eyeDepth(texture(uBackDepth, uv).r);
   float opaque = eyeDepth(texture(uOpaqueDepth, uv).r);
   float thickness = max(min(back, opaque) - front, 0.0);
-  float relative = thickness / uStageRadius;
+  float relative = thickness / uAbsorptionLength;
 
   // Refraction: shift the lookup of what lies behind by the view-space
   // normal, more for thicker water; reject samples in front of the water.

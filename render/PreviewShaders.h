@@ -8,6 +8,7 @@ extern const char* const kCommon;          ///< sky, lights, shadow lookup (prep
 extern const char* const kMeshVertex;      ///< position + normal (+ colour, cutaway) to world
 extern const char* const kDepthVertex;     ///< position to clip only (shadow map, back faces)
 extern const char* const kDepthFragment;   ///< writes nothing but depth
+extern const char* const kSolidShadowFragment;  ///< depth of solids minus cut-away faces
 extern const char* const kFullscreenVertex;
 extern const char* const kSkyFragment;
 extern const char* const kGroundFragment;
