@@ -34,9 +34,27 @@ inline std::uint32_t mortonCompactBits(std::uint64_t x) {
   return static_cast<std::uint32_t>(x);
 }
 
+/// mortonSpreadBits of every byte value: encoding by table (three lookups per
+/// coordinate) is several times faster than the shift-and-mask sequence.
+struct MortonSpreadTable {
+  std::uint64_t spread[256];
+  MortonSpreadTable() {
+    for (std::uint32_t v = 0; v < 256; ++v) spread[v] = mortonSpreadBits(v);
+  }
+};
+inline const MortonSpreadTable& mortonSpreadTable() {
+  static const MortonSpreadTable table;
+  return table;
+}
+
 /// Morton code of cell (x, y, z), each coordinate at most kMortonMaxCoord.
 inline std::uint64_t mortonEncode(std::uint32_t x, std::uint32_t y, std::uint32_t z) {
-  return mortonSpreadBits(x) | (mortonSpreadBits(y) << 1) | (mortonSpreadBits(z) << 2);
+  const std::uint64_t* spread = mortonSpreadTable().spread;
+  auto spreadCoord = [spread](std::uint32_t v) {
+    v &= kMortonMaxCoord;
+    return spread[v & 0xff] | (spread[(v >> 8) & 0xff] << 24) | (spread[v >> 16] << 48);
+  };
+  return spreadCoord(x) | (spreadCoord(y) << 1) | (spreadCoord(z) << 2);
 }
 
 inline void mortonDecode(std::uint64_t code, std::uint32_t& x, std::uint32_t& y, std::uint32_t& z) {

@@ -49,10 +49,12 @@ struct Bounds {
 
 /// floor(t) limited to [-1, 2^21]; NaN gives -1. Monotone in t.
 inline std::int64_t latticeFloor(double t) {
-  const double c = std::floor(t);
-  if (!(c >= -1.0)) return -1;
-  if (c > double(kMaxLattice + 1)) return kMaxLattice + 1;
-  return static_cast<std::int64_t>(c);
+  // floor without a libm call (baseline x86-64 has no roundsd): truncate, then
+  // step down for negative fractions; exact for the limited range.
+  if (!(t >= -1.0)) return -1;
+  if (t > double(kMaxLattice + 1)) return kMaxLattice + 1;
+  const std::int64_t truncated = static_cast<std::int64_t>(t);
+  return truncated - (t < double(truncated) ? 1 : 0);
 }
 
 inline std::uint32_t clampLattice(std::int64_t c) {

@@ -5,13 +5,15 @@
 //
 // The particles are first put in Z-order (Particles::permute(zOrder()), as the
 // solver does every few steps); each time is the best of several repetitions
-// (the machine is shared). Rows:
+// (the machine is shared; stderr also shows the CPU time of all threads, which
+// the other jobs on the machine do not stretch). Rows:
 //   <method>              full build() from scratch + self query() with lists;
 //   grid-incremental      build() after every particle moved by up to 0.05
 //                         spacing (a time step), reusing the previous order;
 //   octree-bucket8        the octree with leaves of up to 8 particles (the
 //                         faithful "octree" splits to one particle per leaf).
-// Brute force runs up to 100k only.
+// Brute force runs up to 100k only, and is skipped (a row says so) when its
+// time estimated from 10k passes a minute.
 #include "Benchmarks.h"
 
 #include "libsph/NeighborSearch.h"
@@ -20,13 +22,24 @@
 
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 #include <cstdio>
 #include <functional>
+#include <limits>
+#include <string>
 #include <random>
 
 namespace cascade::cli {
 
 namespace {
+
+/// CPU time of the whole process (all threads), ms: shows the work done when
+/// the shared machine's other jobs stretch the wall-clock times.
+double processCpuMs() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
+}
 
 double millisecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -62,6 +75,7 @@ void zOrderPoints(std::vector<Vec3r>& points, Real radius) {
 
 struct Timing {
   double buildMs = 1e300, queryMs = 1e300;
+  double buildCpuMs = 1e300, queryCpuMs = 1e300;
   std::size_t pairs = 0;
 };
 
@@ -73,12 +87,14 @@ BenchTable benchNeighbors() {
   const Real spacing = Real(0.01);
   const Real radius = Real(2.1) * spacing;
   const std::size_t sizes[] = {10000, 100000, 1000000};
+  double bruteMs = 0;
+  std::size_t bruteN = 0;
 
   auto addRow = [&](const std::string& method, std::size_t n, const Timing& t) {
     table.addRow({method, static_cast<long long>(n), t.buildMs, t.queryMs,
                   (t.buildMs + t.queryMs) * 1e6 / double(n), double(t.pairs) / double(n)});
-    std::fprintf(stderr, "  %-18s n=%-8zu build %.2f ms, query %.2f ms\n", method.c_str(), n,
-                 t.buildMs, t.queryMs);
+    std::fprintf(stderr, "  %-18s n=%-8zu build %.2f ms (cpu %.2f), query %.2f ms (cpu %.2f)\n",
+                 method.c_str(), n, t.buildMs, t.buildCpuMs, t.queryMs, t.queryCpuMs);
   };
 
   for (const std::size_t target : sizes) {
@@ -92,20 +108,36 @@ BenchTable benchNeighbors() {
       Timing t;
       NeighborLists lists;
       for (int r = 0; r < reps; ++r) {
+        double cpu = processCpuMs();
         auto start = std::chrono::steady_clock::now();
         search.build(points.data(), n, radius);
         t.buildMs = std::min(t.buildMs, millisecondsSince(start));
+        t.buildCpuMs = std::min(t.buildCpuMs, processCpuMs() - cpu);
+        cpu = processCpuMs();
         start = std::chrono::steady_clock::now();
         search.query(points.data(), n, nullptr, true, lists);
         t.queryMs = std::min(t.queryMs, millisecondsSince(start));
+        t.queryCpuMs = std::min(t.queryCpuMs, processCpuMs() - cpu);
       }
       t.pairs = lists.totalCount();
       return t;
     };
 
-    if (n <= 100000) {
-      BruteForceSearch brute;
-      addRow("brute", n, measure(brute, n <= 10000 ? 3 : 1));
+    if (target <= 100000) {
+      // All pairs: capped when the estimate from the last size passes a minute.
+      const double estimateMs =
+          bruteN ? bruteMs * double(n) * double(n) / (double(bruteN) * double(bruteN)) : 0.0;
+      if (estimateMs > 60000.0) {
+        const double nan = std::numeric_limits<double>::quiet_NaN();
+        table.addRow({"brute (skipped: estimated " + std::to_string(int(estimateMs / 1000)) + " s > 60 s)",
+                      static_cast<long long>(n), nan, nan, nan, nan});
+      } else {
+        BruteForceSearch brute;
+        const Timing t = measure(brute, n <= 10000 ? 3 : 1);
+        bruteMs = t.buildMs + t.queryMs;
+        bruteN = n;
+        addRow("brute", n, t);
+      }
     }
     {
       search::UniformGridSearch grid;
@@ -123,12 +155,16 @@ BenchTable benchNeighbors() {
       NeighborLists lists;
       for (int r = 0; r < repetitions; ++r) {
         grid.build(points.data(), n, radius);
+        double cpu = processCpuMs();
         auto start = std::chrono::steady_clock::now();
         grid.build(moved.data(), n, radius);
         t.buildMs = std::min(t.buildMs, millisecondsSince(start));
+        t.buildCpuMs = std::min(t.buildCpuMs, processCpuMs() - cpu);
+        cpu = processCpuMs();
         start = std::chrono::steady_clock::now();
         grid.query(moved.data(), n, nullptr, true, lists);
         t.queryMs = std::min(t.queryMs, millisecondsSince(start));
+        t.queryCpuMs = std::min(t.queryCpuMs, processCpuMs() - cpu);
       }
       t.pairs = lists.totalCount();
       addRow(grid.lastBuildWasIncremental() ? "grid-incremental" : "grid-incremental(fell back)", n, t);
