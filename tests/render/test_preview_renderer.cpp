@@ -199,3 +199,32 @@ TEST(PreviewRenderer, WaterLeavesTheBackgroundUntouchedAndIsWaterColoured) {
     }
   EXPECT_GT(rim / rimCount, luminance(centre) + 15);
 }
+
+TEST(PreviewRenderer, KeyLightCastsShadowsWhereTheGeometrySaysSo) {
+  // A block on a floor; the sun travels along (1, 0, -1): the shadow falls on +x.
+  TriangleMesh solids = makeBox({-2, -2, -0.05f}, {2, 2, 0}, "floor");
+  appendMesh(solids, makeBox({-0.25f, -0.25f, 0}, {0.25f, 0.25f, 1}, "block"));
+  Light sun;
+  sun.direction = {1, 0, -1};
+  FrameScene scene;
+  scene.solids = &solids;
+  scene.lights = {sun};
+  scene.camera.position = {0, -0.01f, 7};
+  scene.camera.target = {0, 0, 0};
+  scene.camera.up = {0, 1, 0};
+  scene.camera.fovY = 40;
+  const Image image = renderer().render(scene);
+  const Eigen::Matrix4f projection =
+      scene.camera.projectionMatrix(float(kWidth) / kHeight, 0.1f, 100.0f) * scene.camera.viewMatrix();
+  auto at = [&](float x, float y) {
+    const Eigen::Vector4f clip = projection * Eigen::Vector4f(x, y, 0, 1);
+    const int px = int((clip.x() / clip.w() + 1) * kWidth / 2), py = int((1 - clip.y() / clip.w()) * kHeight / 2);
+    return luminance(image.pixel(px, py));
+  };
+  const int shadowed = at(0.75f, 0.0f), litOpposite = at(-0.75f, 0.0f), litBeside = at(0.75f, 0.8f);
+  EXPECT_LT(shadowed, 0.7 * litOpposite) << shadowed << " vs " << litOpposite;
+  EXPECT_LT(shadowed, 0.7 * litBeside) << shadowed << " vs " << litBeside;
+  EXPECT_NEAR(litOpposite, litBeside, 8);
+  // Beyond the shadow's end (the block is 1 high: the shadow reaches x = 1.25).
+  EXPECT_NEAR(at(1.6f, 0.0f), litBeside, 8);
+}

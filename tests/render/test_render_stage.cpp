@@ -196,3 +196,16 @@ TEST(RenderCommand, BrokenMeshExitsTwoNamingTheFileAndOtherFramesRender) {
   EXPECT_FALSE(fs::exists(out / "render" / "frame.0002.png"));
   fs::remove_all(out);
 }
+
+TEST(RenderStage, BadSceneCameraIsBadInputNamingTheJsonPath) {
+  const fs::path out = freshOut("cascade_render_badscene");
+  writeObj(out / "mesh" / "fluid.0001.obj", blob(0.3f));
+  std::ofstream(out / "scene.json") << R"({"camera": {"position": [0, 0], "target": [0, 0, 0]}})";
+  try {
+    renderOutput(out, smallOptions());
+    FAIL() << "expected InputError";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("scene.json: camera.position"), std::string::npos) << error.what();
+  }
+  fs::remove_all(out);
+}
