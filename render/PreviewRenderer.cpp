@@ -209,7 +209,10 @@ PreviewRenderer::Impl::Impl(int w, int h, int samples, RenderLook renderLook)
   gl.glGetIntegerv(GL_MAX_SAMPLES, &maxSamples);
   samples = std::max(1, samples);
   multisamples = std::min(samples, std::max(1, int(maxSamples)));
-  supersample = samples > multisamples ? 2 : 1;
+  // Supersampling (2x2) only up to 2560x1440 output, the 2x water buffers only
+  // up to 4K internal: beyond that the targets would need gigabytes.
+  const std::size_t pixels = std::size_t(width) * std::size_t(height);
+  supersample = samples > multisamples && pixels <= std::size_t(2560) * 1440 ? 2 : 1;
   internalWidth = width * supersample;
   internalHeight = height * supersample;
 
@@ -222,7 +225,7 @@ PreviewRenderer::Impl::Impl(int w, int h, int samples, RenderLook renderLook)
   waterBufferProgram = link(kMeshVertex, kWaterBufferFragment, false);
   sphereProgram = link(kSphereVertex, kSphereFragment, true);
   sphereShadowProgram = link(kSphereVertex, kSphereShadowFragment, false);
-  waterScale = multisamples > 1 && supersample == 1 ? 2 : 1;
+  waterScale = multisamples > 1 && supersample == 1 && pixels <= std::size_t(3840) * 2160 ? 2 : 1;
   const std::string waterDefine = "#define WATER_SCALE " + std::to_string(waterScale) + "\n";
   waterMaskProgram = link(kFullscreenVertex, (waterDefine + kWaterMaskFragment).c_str(), false);
   waterShadeProgram = link(kFullscreenVertex, (waterDefine + kWaterShadeFragment).c_str(), true);

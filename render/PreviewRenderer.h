@@ -76,7 +76,9 @@ Box3f meshBounds(const TriangleMesh& mesh);
 class PreviewRenderer {
 public:
   /// `samples`: 1 (no anti-aliasing), 2 or 4 multisampling; more than the GL
-  /// limit (4 on llvmpipe) adds 2x2 supersampling on top of the maximum.
+  /// limit (4 on llvmpipe) adds 2x2 supersampling on top of the maximum (up
+  /// to 2560x1440 output). Throws std::runtime_error if OSMesa cannot give
+  /// an OpenGL 3.3 core context.
   PreviewRenderer(int width, int height, int samples = 4, RenderLook look = {});
   ~PreviewRenderer();
   PreviewRenderer(const PreviewRenderer&) = delete;
