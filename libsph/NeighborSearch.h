@@ -91,6 +91,13 @@ std::unique_ptr<NeighborSearch> makeNeighborSearch(const std::string& method);
 /// The method names makeNeighborSearch() accepts.
 std::vector<std::string> neighborSearchMethods();
 
+/// The Z-order (Morton curve over cells of edge cellSize, e.g. the support
+/// radius) of a point set: order[k] is the index of the point that goes to
+/// place k. Particles::permute(order) puts particles that are close in space
+/// close in memory (CompactNSearch's reordering), which speeds up the searches
+/// and every solver pass over neighbour lists; redo it every few steps.
+std::vector<std::size_t> zOrderPermutation(const Vec3r* points, std::size_t count, Real cellSize);
+
 /// Concatenates per-query lists (built in parallel) into compressed rows.
 void assembleNeighborLists(const std::vector<std::vector<std::uint32_t>>& perQuery,
                            NeighborLists& out);

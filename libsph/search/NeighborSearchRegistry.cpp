@@ -1,5 +1,5 @@
-// makeNeighborSearch() and neighborSearchMethods() of libsph/NeighborSearch.h:
-// the one place that knows every search method by name.
+// makeNeighborSearch(), neighborSearchMethods() and zOrderPermutation() of
+// libsph/NeighborSearch.h: the one place that knows every search method by name.
 #include "libsph/NeighborSearch.h"
 #include "libsph/search/OctreeSearch.h"
 #include "libsph/search/UniformGridSearch.h"
@@ -15,6 +15,13 @@ std::unique_ptr<NeighborSearch> makeNeighborSearch(const std::string& method) {
   if (method == "grid") return std::make_unique<search::UniformGridSearch>();
   if (method == "octree") return std::make_unique<search::OctreeSearch>();
   throw std::invalid_argument("unknown neighbour search method '" + method + "'");
+}
+
+std::vector<std::size_t> zOrderPermutation(const Vec3r* points, std::size_t count, Real cellSize) {
+  search::UniformGridSearch grid;
+  grid.setIncrementalBuild(false);
+  grid.build(points, count, cellSize);
+  return grid.zOrder();
 }
 
 } // namespace cascade

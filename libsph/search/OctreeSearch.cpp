@@ -160,7 +160,46 @@ void OctreeSearch::build(const Vec3r* points, std::size_t count, Real maxSupport
       mKeys[i] = mortonEncode(c[0], c[1], c[2]);
     }
   });
-  radixSortPairs(mKeys, mOrder, 3 * kLevels, mKeyScratch, mIndexScratch);
+  // Radix sort on the top 24 bits (the first eight levels), then each run of
+  // equal top bits (a few points, in a compact fluid) sorted on the full code.
+  constexpr int kTopBit = 3 * kLevels - 24;
+  radixSortPairs(mKeys, mOrder, 3 * kLevels, mKeyScratch, mIndexScratch, kTopBit);
+  {
+    std::vector<std::uint32_t> runStart;
+    for (std::size_t k = 0; k < count; ++k)
+      if (k == 0 || (mKeys[k] >> kTopBit) != (mKeys[k - 1] >> kTopBit))
+        runStart.push_back(static_cast<std::uint32_t>(k));
+    runStart.push_back(static_cast<std::uint32_t>(count));
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, runStart.size() - 1, 1024), [&](const auto& range) {
+      std::vector<std::pair<std::uint64_t, std::uint32_t>> pairs;
+      for (std::size_t r = range.begin(); r != range.end(); ++r) {
+        const std::uint32_t begin = runStart[r], end = runStart[r + 1];
+        if (end - begin < 2) continue;
+        if (end - begin <= 32) {  // insertion sort, stable
+          for (std::uint32_t i = begin + 1; i < end; ++i) {
+            const std::uint64_t key = mKeys[i];
+            const std::uint32_t value = mOrder[i];
+            std::uint32_t j = i;
+            for (; j > begin && mKeys[j - 1] > key; --j) {
+              mKeys[j] = mKeys[j - 1];
+              mOrder[j] = mOrder[j - 1];
+            }
+            mKeys[j] = key;
+            mOrder[j] = value;
+          }
+          continue;
+        }
+        pairs.resize(end - begin);
+        for (std::uint32_t i = begin; i < end; ++i) pairs[i - begin] = {mKeys[i], mOrder[i]};
+        std::stable_sort(pairs.begin(), pairs.end(),
+                         [](const auto& a, const auto& b) { return a.first < b.first; });
+        for (std::uint32_t i = begin; i < end; ++i) {
+          mKeys[i] = pairs[i - begin].first;
+          mOrder[i] = pairs[i - begin].second;
+        }
+      }
+    });
+  }
 
   mX.resize(count + kScanPadding);
   mY.resize(count + kScanPadding);

@@ -15,11 +15,12 @@
 namespace cascade::search {
 
 /// Sorts keys[0..n) ascending and applies the same permutation to values;
-/// only the low keyBits bits of each key are looked at. Stable. The scratch
+/// only bits [lowBit, keyBits) of each key are looked at. Stable. The scratch
 /// vectors are resized as needed (pass them again to reuse their memory).
 template <typename Key, typename Value>
 void radixSortPairs(std::vector<Key>& keys, std::vector<Value>& values, int keyBits,
-                    std::vector<Key>& keyScratch, std::vector<Value>& valueScratch) {
+                    std::vector<Key>& keyScratch, std::vector<Value>& valueScratch,
+                    int lowBit = 0) {
   // 8-bit digits (measured faster here than 11-bit ones, for 21- and 63-bit keys).
   constexpr int kDigitBits = 8;
   constexpr std::size_t kBuckets = std::size_t(1) << kDigitBits;
@@ -31,7 +32,7 @@ void radixSortPairs(std::vector<Key>& keys, std::vector<Value>& values, int keyB
   const std::size_t blockSize = (n + blockCount - 1) / blockCount;
   std::vector<std::array<std::size_t, kBuckets>> histograms(blockCount);
 
-  for (int shift = 0; shift < keyBits; shift += kDigitBits) {
+  for (int shift = lowBit; shift < keyBits; shift += kDigitBits) {
     tbb::parallel_for(std::size_t(0), blockCount, [&](std::size_t b) {
       auto& histogram = histograms[b];
       histogram.fill(0);

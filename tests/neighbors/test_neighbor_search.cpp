@@ -279,6 +279,27 @@ TEST(UniformGridSearch, ZOrderIsAPermutationSortedAlongTheCurve) {
     ASSERT_LE(key(points[order[k - 1]]), key(points[order[k]])) << k;
 }
 
+TEST(UniformGridSearch, ZOrderPermutationKeepsTheNeighbourRelation) {
+  // Reordering particles along the curve changes indices, not the neighbour relation.
+  auto points = damBreakWithDroplets(0.01f, 12, 10, 10, 30, 14);
+  std::reverse(points.begin(), points.end());
+  const auto order = zOrderPermutation(points.data(), points.size(), 0.0203f);
+  ASSERT_EQ(order.size(), points.size());
+  std::vector<Vec3r> sorted(points.size());
+  for (std::size_t k = 0; k < order.size(); ++k) sorted[k] = points[order[k]];
+  const Sets before = bruteSets(points, points, 0.0203f, nullptr, true);
+  auto grid = makeNeighborSearch("grid");
+  NeighborLists lists;
+  grid->findNeighbors(sorted.data(), sorted.size(), 0.0203f, lists);
+  const Sets after = toSets(lists);
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    std::vector<std::uint32_t> mapped;
+    for (std::uint32_t j : after[k]) mapped.push_back(static_cast<std::uint32_t>(order[j]));
+    std::sort(mapped.begin(), mapped.end());
+    ASSERT_EQ(mapped, before[order[k]]) << k;
+  }
+}
+
 TEST(MortonCode, EncodeDecodeRoundTrip) {
   EXPECT_EQ(search::mortonEncode(1, 0, 0), 1u);
   EXPECT_EQ(search::mortonEncode(0, 1, 0), 2u);
