@@ -3,6 +3,7 @@
 #include "libsph/Errors.h"
 #include "libsph/Kernels.h"
 #include "libsph/io/AtomicFile.h"
+#include "libsph/search/UniformGridSearch.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -40,6 +41,20 @@ double latticeKernelSum(Real spacing, Real supportRadius) {
         sum += poly6.valueFromSquared(r2);
       }
   return sum;
+}
+
+/// C of DerivedConstants::gradientCorrection on the lattice of `spacing`.
+double latticeGradientSum(Real spacing, Real supportRadius, double volume) {
+  const KernelSpiky spiky(supportRadius);
+  const int reach = static_cast<int>(std::ceil(supportRadius / spacing));
+  double sum = 0;
+  for (int z = -reach; z <= reach; ++z)
+    for (int y = -reach; y <= reach; ++y)
+      for (int x = -reach; x <= reach; ++x) {
+        const Vec3r r = spacing * Vec3r(Real(x), Real(y), Real(z));  // x_i - x_j
+        sum += double(r.dot(spiky.gradient(r)));
+      }
+  return -volume * sum / 3.0;  // (x_j - x_i) . grad W = -r . grad W
 }
 
 std::uint64_t spreadBits(std::uint64_t v) {
@@ -101,6 +116,9 @@ Simulation::Simulation(const SimulationSettings& settings) : mSettings(settings)
   }
   try {
     mSearch = makeNeighborSearch(mSettings.solver.neighborSearch);
+    // Exact restarts need the same neighbour order as an uninterrupted run; the
+    // grid's incremental rebuild orders a cell's points by history, so rebuild fully.
+    if (auto* grid = dynamic_cast<search::UniformGridSearch*>(mSearch.get())) grid->setIncrementalBuild(false);
   } catch (const std::invalid_argument&) {
     throw InputError("settings: solver.neighbor_search: unknown method '" + mSettings.solver.neighborSearch + "'");
   }
@@ -108,6 +126,9 @@ Simulation::Simulation(const SimulationSettings& settings) : mSettings(settings)
   mConstants.particleMass = static_cast<Real>(
       mSettings.fluid.restDensity / latticeKernelSum(mSettings.fluid.spacing, mConstants.supportRadius));
   mParticles.mass = mConstants.particleMass;
+  mConstants.gradientCorrection = static_cast<Real>(
+      1.0 / latticeGradientSum(mSettings.fluid.spacing, mConstants.supportRadius,
+                               double(mConstants.particleMass) / mSettings.fluid.restDensity));
 }
 
 Simulation::~Simulation() = default;

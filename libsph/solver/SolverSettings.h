@@ -30,6 +30,17 @@ struct FluidSettings {
 /// With the same k both have the same speed of sound sqrt(k) at rest density.
 enum class EquationOfState { Linear, Tait };
 
+/// The pressure force of SEED (5).
+enum class PressureForce {
+  /// -m_j (p_i + p_j) / rho_j grad W: a consistent estimate of grad p in the
+  /// bulk (sum_j m_j / rho_j grad W = 0 there), symmetric, so momentum is conserved.
+  Symmetric,
+  /// SEED (5) as printed (Mueller 2003): -m_j (p_i + p_j) / (2 rho_j) grad W. In
+  /// the bulk it gives grad p / 2, so the pressure that holds water at rest is
+  /// twice rho g d (the hydrostatic test fails by a factor 2).
+  MuellerHalf,
+};
+
 struct SolverSettings {
   std::string type = "wcsph";        ///< time-step strategy: "wcsph" (SEED); later "dfsph"
   Real supportRadiusFactor = Real(2);  ///< support radius h = factor * spacing
@@ -40,6 +51,7 @@ struct SolverSettings {
   /// k of SEED (10), m^2/s^2 (= squared speed of sound). 0: (10 * expectedSpeed)^2,
   /// the weakly compressible choice (density varies by about 1 %).
   Real stiffness = Real(0);
+  PressureForce pressureForce = PressureForce::Symmetric;
   bool clampNegativePressure = true;  ///< p = max(p, 0): no tensile pull at the free surface
   /// Monaghan (1992) artificial viscosity alpha, added to SEED (6) for stability; 0 = off.
   Real artificialViscosity = Real(0.05);

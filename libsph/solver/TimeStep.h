@@ -36,6 +36,11 @@ struct DerivedConstants {
   Real speedOfSound = 0;       ///< sqrt(k), m/s
   Real repulsionStrength = 0;  ///< D of SEED (11), m^2/s^2
   Real repulsionRadius = 0;    ///< r0 of SEED (11), m
+  /// 1 / C with C = -(1/3) sum_j V_j (x_j - x_i) . grad W_spiky(x_i - x_j) over the
+  /// rest lattice (V_j = m / rho_0): the spiky gradient sums to C I, not I, on the
+  /// lattice (C = 0.947 for h = 2 spacings), so grad p is under-estimated by C.
+  /// Pressure forces are divided by C (computed once, like the particle mass).
+  Real gradientCorrection = 1;
 };
 
 /// Everything a strategy reads and writes in one step.

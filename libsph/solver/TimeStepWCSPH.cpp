@@ -29,6 +29,7 @@ struct PairTerms {
   Real viscosityCoeff;       // mu m
   Real artificialCoeff;      // alpha h c (Monaghan 1992)
   Real epsilon2;             // 0.01 h^2
+  Real pressureFactor;       // (1 or 1/2 as printed) / C (lattice gradient correction)
 
   explicit PairTerms(const StepContext& c)
       : spiky(c.constants.supportRadius), viscosity(c.constants.supportRadius),
@@ -37,7 +38,9 @@ struct PairTerms {
         viscosityCoeff(c.settings.fluid.viscosity * c.constants.particleMass),
         artificialCoeff(c.settings.solver.artificialViscosity * c.constants.supportRadius *
                         c.constants.speedOfSound),
-        epsilon2(Real(0.01) * c.constants.supportRadius * c.constants.supportRadius) {}
+        epsilon2(Real(0.01) * c.constants.supportRadius * c.constants.supportRadius),
+        pressureFactor((c.settings.solver.pressureForce == PressureForce::MuellerHalf ? Real(0.5) : Real(1)) *
+                       c.constants.gradientCorrection) {}
 
   /// Acceleration of i (times rho_i for the pressure/viscosity parts) from one neighbour j.
   /// Returns the contribution to a_i.
@@ -47,8 +50,8 @@ struct PairTerms {
     const Real diff = spiky.supportRadius - len;
     // grad W_spiky = -45/(pi h^6) (h - r)^2 r/|r|  (SEED (8))
     const Vec3r gradient = (spiky.gradientCoeff * diff * diff / len) * r;
-    // SEED (5) / rho_i: -m (p_i + p_j) / (2 rho_j rho_i) grad W
-    Real scalar = -mass * (pressureI + pressureJ) / (Real(2) * densityJ * densityI);
+    // SEED (5) / rho_i: -m (p_i + p_j) / (rho_j rho_i) grad W (times 1/2 as printed)
+    Real scalar = -mass * pressureFactor * (pressureI + pressureJ) / (densityJ * densityI);
     const Vec3r relativeVelocity = velocityI - velocityJ;
     if (artificialCoeff > 0) {
       const Real vr = relativeVelocity.dot(r);

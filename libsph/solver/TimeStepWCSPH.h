@@ -3,7 +3,8 @@
 ///        the SEED's corrections):
 ///        density SEED (4) with poly6 (7); pressure from SEED (10) or Tait;
 ///        pressure force SEED (5) with the spiky gradient (8), symmetric
-///        (p_i + p_j)/2; viscosity SEED (6) with the viscosity Laplacian (9);
+///        (p_i + p_j) (without the printed 1/2, which halves grad p in the bulk;
+///        SolverSettings::pressureForce selects the literal form); viscosity SEED (6) with the viscosity Laplacian (9);
 ///        optional Monaghan (1992) artificial viscosity; gravity and the
 ///        boundary forces (SEED (15)): type I repulsion SEED (11) and type II
 ///        mirror particles; symplectic Euler SEED (12)-(14).

@@ -1,0 +1,439 @@
+#include "libsph/boundary/MeshBoundary.h"
+
+#include "libsph/Errors.h"
+#include "libsph/boundary/BoundarySampling.h"
+
+// Heavy headers stay here (BRIEF: assimp / CGAL inside the .cpp files).
+#include <assimp/Importer.hpp>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <CGAL/Simple_cartesian.h>
+#include <CGAL/Surface_mesh.h>
+#include <CGAL/boost/graph/helpers.h>
+#include <CGAL/Polygon_mesh_processing/border.h>
+#include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
+#include <CGAL/Polygon_mesh_processing/orientation.h>
+#include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
+#include <CGAL/Polygon_mesh_processing/repair_polygon_soup.h>
+#include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
+#include <CGAL/Polygon_mesh_processing/triangulate_faces.h>
+#include <CGAL/boost/graph/Euler_operations.h>
+#include <CGAL/Surface_mesh_simplification/edge_collapse.h>
+#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_stop_predicate.h>
+
+#include <array>
+#include <cmath>
+#include <map>
+#include <ostream>
+#include <unordered_map>
+
+namespace cascade {
+
+namespace {
+
+using Kernel = CGAL::Simple_cartesian<double>;
+using Point = Kernel::Point_3;
+using SurfaceMesh = CGAL::Surface_mesh<Point>;
+namespace PMP = CGAL::Polygon_mesh_processing;
+namespace SMS = CGAL::Surface_mesh_simplification;
+
+SurfaceMesh toSurfaceMesh(const TriangleMesh& mesh, const std::string& context) {
+  std::vector<Point> points;
+  points.reserve(mesh.vertices.size());
+  for (const Eigen::Vector3f& v : mesh.vertices) points.emplace_back(v.x(), v.y(), v.z());
+  std::vector<std::vector<std::size_t>> polygons;
+  polygons.reserve(mesh.triangles.size());
+  for (const auto& t : mesh.triangles) polygons.push_back({t[0], t[1], t[2]});
+  PMP::repair_polygon_soup(points, polygons);
+  PMP::orient_polygon_soup(points, polygons);
+  SurfaceMesh result;
+  PMP::polygon_soup_to_polygon_mesh(points, polygons, result);
+  if (result.number_of_faces() == 0) throw InputError(context + ": mesh has no valid triangles");
+  return result;
+}
+
+TriangleMesh toTriangleMesh(const SurfaceMesh& mesh) {
+  TriangleMesh result;
+  std::vector<std::uint32_t> index(mesh.number_of_vertices() + mesh.number_of_removed_vertices(), 0);
+  for (auto v : mesh.vertices()) {
+    index[v.idx()] = static_cast<std::uint32_t>(result.vertices.size());
+    const Point& p = mesh.point(v);
+    result.vertices.emplace_back(float(p.x()), float(p.y()), float(p.z()));
+  }
+  for (auto f : mesh.faces()) {
+    std::array<std::uint32_t, 3> tri{};
+    int k = 0;
+    for (auto v : CGAL::vertices_around_face(mesh.halfedge(f), mesh)) {
+      if (k < 3) tri[k] = index[v.idx()];
+      ++k;
+    }
+    if (k == 3) result.triangles.push_back(tri);
+  }
+  return result;
+}
+
+/// Closest point on triangle (a, b, c) to p (Ericson, Real-Time Collision Detection 5.1.5).
+Vec3d closestOnTriangle(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  const Vec3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Vec3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + (d1 / (d1 - d3)) * ab;
+  const Vec3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + (d2 / (d2 - d6)) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+} // namespace
+
+TriangleMesh loadMeshFile(const std::filesystem::path& path) {
+  if (!std::filesystem::exists(path)) throw InputError(path.string() + ": mesh file not found");
+  Assimp::Importer importer;
+  const aiScene* scene = importer.ReadFile(
+      path.string(), aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices);
+  if (!scene || !scene->mRootNode)
+    throw InputError(path.string() + ": cannot load mesh (" + importer.GetErrorString() + ")");
+  TriangleMesh mesh;
+  // Weld identical positions across the file's meshes.
+  std::map<std::array<float, 3>, std::uint32_t> welded;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    const aiMesh* part = scene->mMeshes[m];
+    std::vector<std::uint32_t> index(part->mNumVertices);
+    for (unsigned v = 0; v < part->mNumVertices; ++v) {
+      const aiVector3D& p = part->mVertices[v];
+      const std::array<float, 3> key{p.x, p.y, p.z};
+      auto [it, inserted] = welded.emplace(key, static_cast<std::uint32_t>(mesh.vertices.size()));
+      if (inserted) mesh.vertices.emplace_back(p.x, p.y, p.z);
+      index[v] = it->second;
+    }
+    for (unsigned f = 0; f < part->mNumFaces; ++f) {
+      const aiFace& face = part->mFaces[f];
+      if (face.mNumIndices != 3) continue;
+      const std::array<std::uint32_t, 3> tri{index[face.mIndices[0]], index[face.mIndices[1]], index[face.mIndices[2]]};
+      if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2]) continue;
+      mesh.triangles.push_back(tri);
+    }
+  }
+  if (mesh.triangles.empty()) throw InputError(path.string() + ": mesh has no triangles");
+  return mesh;
+}
+
+std::size_t countBorderEdges(const TriangleMesh& mesh) {
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> uses;
+  for (const auto& t : mesh.triangles)
+    for (int e = 0; e < 3; ++e) {
+      std::uint32_t a = t[e], b = t[(e + 1) % 3];
+      if (a > b) std::swap(a, b);
+      ++uses[{a, b}];
+    }
+  std::size_t border = 0;
+  for (const auto& [edge, count] : uses)
+    if (count == 1) ++border;
+  return border;
+}
+
+std::size_t fillMeshHoles(TriangleMesh& mesh, const std::string& context) {
+  SurfaceMesh surface = toSurfaceMesh(mesh, context);
+  std::size_t filled = 0;
+  std::vector<SurfaceMesh::Halfedge_index> borders;
+  PMP::extract_boundary_cycles(surface, std::back_inserter(borders));
+  for (auto h : borders) {
+    std::vector<SurfaceMesh::Face_index> faces;
+    PMP::triangulate_hole(surface, h, std::back_inserter(faces));
+    if (!faces.empty()) ++filled;
+  }
+  mesh = toTriangleMesh(surface);
+  return filled;
+}
+
+TriangleMesh simplifyMesh(const TriangleMesh& mesh, std::size_t targetTriangles, const std::string& context) {
+  if (targetTriangles == 0 || mesh.triangles.size() <= targetTriangles) return mesh;
+  SurfaceMesh surface = toSurfaceMesh(mesh, context);
+  // A closed triangle mesh has E = 3F/2 edges; stop below the edge count of the target.
+  SMS::Count_stop_predicate<SurfaceMesh> stop(targetTriangles * 3 / 2 + 1);
+  SMS::edge_collapse(surface, stop);
+  surface.collect_garbage();
+  return toTriangleMesh(surface);
+}
+
+std::vector<Vec3r> sampleTrianglesSeed(const TriangleMesh& mesh, Real maxGap, std::size_t* subdividedTriangles) {
+  std::vector<Vec3r> samples;
+  std::size_t subdivided = 0;
+  // Vertices and edge midpoints of the original triangles: shared, once each.
+  std::vector<char> used(mesh.vertices.size(), 0);
+  for (const auto& t : mesh.triangles) used[t[0]] = used[t[1]] = used[t[2]] = 1;
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
+    if (used[v]) samples.push_back(mesh.vertices[v].cast<Real>());
+  std::map<std::pair<std::uint32_t, std::uint32_t>, bool> edges;
+  for (const auto& t : mesh.triangles)
+    for (int e = 0; e < 3; ++e) {
+      std::uint32_t a = t[e], b = t[(e + 1) % 3];
+      if (a > b) std::swap(a, b);
+      if (edges.emplace(std::make_pair(a, b), true).second)
+        samples.push_back(Real(0.5) * (mesh.vertices[a] + mesh.vertices[b]).cast<Real>());
+    }
+  // Per triangle: the centroid, and if an edge is longer than 2 maxGap (so that
+  // vertex-midpoint gaps exceed maxGap) the 7 points of its 1-to-4 subdivisions.
+  struct Tri { Vec3r a, b, c; };
+  for (const auto& t : mesh.triangles) {
+    std::vector<Tri> stack{{mesh.vertices[t[0]].cast<Real>(), mesh.vertices[t[1]].cast<Real>(),
+                            mesh.vertices[t[2]].cast<Real>()}};
+    bool split = false;
+    while (!stack.empty()) {
+      const Tri tri = stack.back();
+      stack.pop_back();
+      const Real longest = std::max({(tri.a - tri.b).norm(), (tri.b - tri.c).norm(), (tri.c - tri.a).norm()});
+      if (longest > 2 * maxGap) {
+        split = true;
+        const Vec3r ab = Real(0.5) * (tri.a + tri.b), bc = Real(0.5) * (tri.b + tri.c), ca = Real(0.5) * (tri.c + tri.a);
+        stack.push_back({tri.a, ab, ca});
+        stack.push_back({ab, tri.b, bc});
+        stack.push_back({ca, bc, tri.c});
+        stack.push_back({ab, bc, ca});
+        continue;
+      }
+      samples.push_back((tri.a + tri.b + tri.c) / Real(3));
+      if (split) {
+        samples.push_back(tri.a);
+        samples.push_back(tri.b);
+        samples.push_back(tri.c);
+        samples.push_back(Real(0.5) * (tri.a + tri.b));
+        samples.push_back(Real(0.5) * (tri.b + tri.c));
+        samples.push_back(Real(0.5) * (tri.c + tri.a));
+      }
+    }
+    if (split) ++subdivided;
+  }
+  // Points of subdivided triangles coincide along shared edges: keep them once.
+  removeDuplicateSamples(samples, maxGap * Real(1e-3));
+  if (subdividedTriangles) *subdividedTriangles = subdivided;
+  return samples;
+}
+
+// --- MeshBoundary ---------------------------------------------------------
+
+struct MeshBoundary::Impl {
+  TriangleMesh mesh;               // world coordinates, outward oriented
+  std::vector<Vec3d> a, b, c;      // triangle corners (double for the winding number)
+  std::vector<Vec3d> faceNormal;
+  Vec3r lo = Vec3r::Zero(), hi = Vec3r::Zero();
+  // Uniform grid of triangles (bounding boxes) for closest-point queries.
+  Vec3d origin = Vec3d::Zero();
+  double cellSize = 1;
+  long dims[3] = {1, 1, 1};
+  std::vector<std::uint32_t> cellStart, cellTriangles;
+
+  void build() {
+    const std::size_t n = mesh.triangles.size();
+    a.resize(n); b.resize(n); c.resize(n); faceNormal.resize(n);
+    Vec3d lo3 = Vec3d::Constant(1e300), hi3 = -lo3;
+    double edgeSum = 0;
+    for (std::size_t t = 0; t < n; ++t) {
+      a[t] = mesh.vertices[mesh.triangles[t][0]].cast<double>();
+      b[t] = mesh.vertices[mesh.triangles[t][1]].cast<double>();
+      c[t] = mesh.vertices[mesh.triangles[t][2]].cast<double>();
+      const Vec3d normal = (b[t] - a[t]).cross(c[t] - a[t]);
+      faceNormal[t] = normal.norm() > 0 ? Vec3d(normal.normalized()) : Vec3d(Vec3d::UnitZ());
+      lo3 = lo3.cwiseMin(a[t]).cwiseMin(b[t]).cwiseMin(c[t]);
+      hi3 = hi3.cwiseMax(a[t]).cwiseMax(b[t]).cwiseMax(c[t]);
+      edgeSum += (b[t] - a[t]).norm() + (c[t] - b[t]).norm() + (a[t] - c[t]).norm();
+    }
+    lo = lo3.cast<Real>();
+    hi = hi3.cast<Real>();
+    const Vec3d extent = hi3 - lo3;
+    cellSize = std::max(2.0 * edgeSum / (3.0 * double(std::max<std::size_t>(n, 1))), extent.maxCoeff() / 64.0);
+    if (!(cellSize > 0)) cellSize = 1;
+    origin = lo3 - Vec3d::Constant(cellSize);
+    for (int k = 0; k < 3; ++k) dims[k] = long(std::floor((hi3[k] - origin[k]) / cellSize)) + 2;
+    const std::size_t cells = std::size_t(dims[0]) * dims[1] * dims[2];
+    std::vector<std::vector<std::uint32_t>> lists(cells);
+    for (std::size_t t = 0; t < n; ++t) {
+      const Vec3d tlo = a[t].cwiseMin(b[t]).cwiseMin(c[t]), thi = a[t].cwiseMax(b[t]).cwiseMax(c[t]);
+      long l[3], u[3];
+      for (int k = 0; k < 3; ++k) {
+        l[k] = long(std::floor((tlo[k] - origin[k]) / cellSize));
+        u[k] = long(std::floor((thi[k] - origin[k]) / cellSize));
+      }
+      for (long z = l[2]; z <= u[2]; ++z)
+        for (long y = l[1]; y <= u[1]; ++y)
+          for (long x = l[0]; x <= u[0]; ++x) lists[(z * dims[1] + y) * dims[0] + x].push_back(std::uint32_t(t));
+    }
+    cellStart.assign(cells + 1, 0);
+    for (std::size_t k = 0; k < cells; ++k) cellStart[k + 1] = cellStart[k] + std::uint32_t(lists[k].size());
+    cellTriangles.resize(cellStart.back());
+    for (std::size_t k = 0; k < cells; ++k) std::copy(lists[k].begin(), lists[k].end(), cellTriangles.begin() + cellStart[k]);
+  }
+
+  /// Closest point within maxDistance; returns the triangle index or -1.
+  long closest(const Vec3d& p, double maxDistance, Vec3d& point) const {
+    long l[3], u[3];
+    for (int k = 0; k < 3; ++k) {
+      l[k] = std::max(0L, long(std::floor((p[k] - maxDistance - origin[k]) / cellSize)));
+      u[k] = std::min(dims[k] - 1, long(std::floor((p[k] + maxDistance - origin[k]) / cellSize)));
+      if (l[k] > u[k]) return -1;
+    }
+    double best = maxDistance * maxDistance;
+    long bestTriangle = -1;
+    for (long z = l[2]; z <= u[2]; ++z)
+      for (long y = l[1]; y <= u[1]; ++y)
+        for (long x = l[0]; x <= u[0]; ++x) {
+          const long cell = (z * dims[1] + y) * dims[0] + x;
+          for (std::uint32_t s = cellStart[cell]; s < cellStart[cell + 1]; ++s) {
+            const std::uint32_t t = cellTriangles[s];
+            const Vec3d q = closestOnTriangle(p, a[t], b[t], c[t]);
+            const double d2 = (q - p).squaredNorm();
+            if (d2 < best || (d2 == best && bestTriangle >= 0 && long(t) < bestTriangle)) {
+              best = d2;
+              bestTriangle = long(t);
+              point = q;
+            }
+          }
+        }
+    return bestTriangle;
+  }
+};
+
+MeshBoundary::MeshBoundary() : mImpl(std::make_unique<Impl>()) {}
+MeshBoundary::~MeshBoundary() = default;
+
+std::unique_ptr<MeshBoundary> MeshBoundary::fromMesh(TriangleMesh worldMesh, const std::string& context) {
+  if (worldMesh.triangles.empty()) throw InputError(context + ": mesh has no triangles");
+  std::unique_ptr<MeshBoundary> boundary(new MeshBoundary());
+  worldMesh.groups.clear();
+  worldMesh.normals.clear();
+  boundary->mImpl->mesh = std::move(worldMesh);
+  boundary->mImpl->build();
+  return boundary;
+}
+
+std::unique_ptr<MeshBoundary> MeshBoundary::load(const std::filesystem::path& path,
+                                                 const MeshObstacleOptions& options, std::ostream* log) {
+  const std::string context = path.string();
+  TriangleMesh mesh = loadMeshFile(path);
+  const std::size_t loaded = mesh.triangles.size();
+  // Make it one consistently oriented surface, closed if required.
+  SurfaceMesh surface = toSurfaceMesh(mesh, context);
+  std::size_t holes = 0;
+  if (!CGAL::is_closed(surface) && options.requireClosed) {
+    std::vector<SurfaceMesh::Halfedge_index> borders;
+    PMP::extract_boundary_cycles(surface, std::back_inserter(borders));
+    for (auto h : borders) {
+      std::vector<SurfaceMesh::Face_index> faces;
+      PMP::triangulate_hole(surface, h, std::back_inserter(faces));
+      if (!faces.empty()) ++holes;
+    }
+    // What the hole filler left (tiny cracks it cannot triangulate): close with one polygon, triangulated.
+    std::vector<SurfaceMesh::Halfedge_index> left;
+    PMP::extract_boundary_cycles(surface, std::back_inserter(left));
+    for (auto h : left) {
+      if (!surface.is_border(h)) continue;
+      CGAL::Euler::fill_hole(h, surface);
+      const auto face = surface.face(h);
+      if (!PMP::triangulate_face(face, surface)) {
+        // Degenerate polygon (a crack): fan it from one corner.
+        SurfaceMesh::Halfedge_index start = surface.halfedge(face);
+        while (CGAL::halfedges_around_face(start, surface).size() > 3) {
+          const auto opposite = surface.next(surface.next(start));
+          start = surface.next(CGAL::Euler::split_face(start, opposite, surface));
+          start = surface.prev(start);
+        }
+      }
+      ++holes;
+    }
+    if (!CGAL::is_closed(surface))
+      throw InputError(context + ": mesh is not closed (an obstacle must bound a volume) and its holes could not be filled");
+  }
+  if (CGAL::is_closed(surface) && !PMP::is_outward_oriented(surface)) PMP::reverse_face_orientations(surface);
+  const std::size_t closed = surface.number_of_faces();
+  if (options.targetTriangles > 0 && surface.number_of_faces() > options.targetTriangles) {
+    SMS::Count_stop_predicate<SurfaceMesh> stop(options.targetTriangles * 3 / 2 + 1);
+    SMS::edge_collapse(surface, stop);
+    surface.collect_garbage();
+  }
+  mesh = toTriangleMesh(surface);
+  if (options.requireClosed && countBorderEdges(mesh) != 0)
+    throw InputError(context + ": mesh is not closed after simplification");
+  for (Eigen::Vector3f& v : mesh.vertices) v = options.transform.apply(v.cast<Real>()).cast<float>();
+  if (log)
+    *log << context << ": " << loaded << " triangles loaded, " << holes << " holes filled (" << closed
+         << " triangles), simplified to " << mesh.triangles.size() << " triangles\n";
+  return fromMesh(std::move(mesh), context);
+}
+
+void MeshBoundary::sampleSurface(Real maxGap, std::vector<Vec3r>& samples) const {
+  const std::vector<Vec3r> mine = sampleTrianglesSeed(mImpl->mesh, maxGap);
+  samples.insert(samples.end(), mine.begin(), mine.end());
+}
+
+void MeshBoundary::mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryIndex,
+                              std::vector<MirrorMap>& maps) const {
+  const Impl& m = *mImpl;
+  for (int k = 0; k < 3; ++k)
+    if (x[k] < m.lo[k] - range || x[k] > m.hi[k] + range) return;
+  Vec3d point;
+  const Vec3d p = x.cast<double>();
+  const long t = m.closest(p, double(range), point);
+  if (t < 0) return;
+  const Vec3d offset = p - point;
+  const double distance = offset.norm();
+  if (distance <= 1e-12 || offset.dot(m.faceNormal[t]) <= 0) return;  // on or behind the surface
+  maps.push_back(MirrorMap::reflection(point.cast<Real>(), (offset / distance).cast<Real>(), boundaryIndex));
+}
+
+double MeshBoundary::windingNumber(const Vec3r& x) const {
+  // Sum of signed solid angles (Van Oosterom & Strackee 1983) over 4 pi.
+  const Impl& m = *mImpl;
+  const Vec3d p = x.cast<double>();
+  double total = 0;
+  for (std::size_t t = 0; t < m.a.size(); ++t) {
+    const Vec3d a = m.a[t] - p, b = m.b[t] - p, c = m.c[t] - p;
+    const double la = a.norm(), lb = b.norm(), lc = c.norm();
+    const double numerator = a.dot(b.cross(c));
+    const double denominator = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
+    total += 2.0 * std::atan2(numerator, denominator);
+  }
+  return total / (4.0 * 3.14159265358979323846);
+}
+
+bool MeshBoundary::isInside(const Vec3r& x) const {
+  const Impl& m = *mImpl;
+  for (int k = 0; k < 3; ++k)
+    if (x[k] < m.lo[k] || x[k] > m.hi[k]) return false;
+  return windingNumber(x) > 0.5;
+}
+
+bool MeshBoundary::closestPoint(const Vec3r& x, Real maxDistance, Vec3r& point, Vec3r& normal) const {
+  Vec3d q;
+  const long t = mImpl->closest(x.cast<double>(), double(maxDistance), q);
+  if (t < 0) return false;
+  point = q.cast<Real>();
+  normal = mImpl->faceNormal[t].cast<Real>();
+  return true;
+}
+
+TriangleMesh MeshBoundary::surfaceMesh() const {
+  TriangleMesh mesh = mImpl->mesh;
+  mesh.computeNormals();
+  mesh.groups.assign(1, TriangleMesh::Group{name(), 0, mesh.triangles.size()});
+  return mesh;
+}
+
+void MeshBoundary::bounds(Vec3r& lo, Vec3r& hi) const {
+  lo = mImpl->lo;
+  hi = mImpl->hi;
+}
+
+std::size_t MeshBoundary::triangleCount() const { return mImpl->mesh.triangles.size(); }
+const TriangleMesh& MeshBoundary::mesh() const { return mImpl->mesh; }
+
+} // namespace cascade

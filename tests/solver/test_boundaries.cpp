@@ -1,0 +1,213 @@
+// Unit tests of the boundary geometry: mirror maps, type I sampling (gaps,
+// SEED 7-point triangles), mesh loading, simplification, closure and inside tests.
+#include "libsph/Errors.h"
+#include "libsph/boundary/BoxBoundary.h"
+#include "libsph/boundary/MeshBoundary.h"
+#include "libsph/boundary/PlaneBoundary.h"
+#include "libsph/io/AtomicFile.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <random>
+
+namespace cascade {
+
+namespace {
+
+Real largestHole(const std::vector<Vec3r>& samples, const std::vector<Vec3r>& probes) {
+  Real worst = 0;
+  for (const Vec3r& p : probes) {
+    Real best = std::numeric_limits<Real>::max();
+    for (const Vec3r& s : samples) best = std::min(best, (s - p).norm());
+    worst = std::max(worst, best);
+  }
+  return worst;
+}
+
+std::filesystem::path writeTemp(const std::string& name, const std::string& text) {
+  const auto path = std::filesystem::temp_directory_path() / ("cascade_solver_test_" + name);
+  writeTextAtomically(path, text);
+  return path;
+}
+
+const char* kCubeObj =
+    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+    "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n";
+
+} // namespace
+
+TEST(MirrorMap, ReflectsAcrossThePlaneAndIsAnInvolution) {
+  const MirrorMap map = MirrorMap::reflection(Vec3r(0, 0, 1), Vec3r(0, 0, 1), 3);
+  const Vec3r x(0.3f, -0.2f, 1.25f);
+  EXPECT_TRUE(map.apply(x).isApprox(Vec3r(0.3f, -0.2f, 0.75f)));
+  EXPECT_TRUE(map.apply(map.apply(x)).isApprox(x));
+  EXPECT_EQ(map.boundary, 3u);
+  // Free slip: the normal velocity component flips, the tangential one stays.
+  EXPECT_TRUE((map.linear * Vec3r(1, 2, 3)).isApprox(Vec3r(1, 2, -3)));
+}
+
+TEST(BoxBoundary, TankCornerSeesAllSevenImages) {
+  auto tank = BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(1, 1, 1));
+  std::vector<MirrorMap> maps;
+  tank->mirrorMaps(Vec3r(0.01f, 0.02f, 0.03f), 0.1f, 0, maps);
+  ASSERT_EQ(maps.size(), 7u);  // 3 walls, 3 edges, 1 corner
+  // The corner image is the point reflection through the corner.
+  bool foundCorner = false;
+  for (const MirrorMap& m : maps)
+    if (m.apply(Vec3r(0.01f, 0.02f, 0.03f)).isApprox(Vec3r(-0.01f, -0.02f, -0.03f))) foundCorner = true;
+  EXPECT_TRUE(foundCorner);
+  maps.clear();
+  tank->mirrorMaps(Vec3r(0.5f, 0.5f, 0.5f), 0.1f, 0, maps);
+  EXPECT_TRUE(maps.empty());
+  // Open top: no image across z = 1.
+  maps.clear();
+  tank->mirrorMaps(Vec3r(0.5f, 0.5f, 0.99f), 0.1f, 0, maps);
+  EXPECT_TRUE(maps.empty());
+  EXPECT_TRUE(tank->isInside(Vec3r(0.5f, 0.5f, -0.1f)));
+  EXPECT_FALSE(tank->isInside(Vec3r(0.5f, 0.5f, 3.0f)));  // above the open top is not a wall
+}
+
+TEST(BoxBoundary, SolidBlockMirrorsAcrossTheNearestFaceAndEdge) {
+  const auto rotation = Transform::rotationFromEulerDegrees(Vec3r(0, 30, 0));
+  auto box = BoxBoundary::solid(Vec3r(0, 0, 0), Vec3r(1, 1, 0.1f), rotation);
+  const Vec3r top = rotation * Vec3r(0.2f, 0.3f, 0.15f);  // 0.05 above the inclined top face
+  std::vector<MirrorMap> maps;
+  box->mirrorMaps(top, 0.1f, 0, maps);
+  ASSERT_EQ(maps.size(), 1u);
+  EXPECT_TRUE(maps[0].apply(top).isApprox(rotation * Vec3r(0.2f, 0.3f, 0.05f), 1e-5f));
+  EXPECT_TRUE(box->isInside(rotation * Vec3r(0.5f, 0.5f, 0.0f)));
+  EXPECT_FALSE(box->isInside(top));
+}
+
+TEST(BoxBoundary, SamplesLeaveNoGapWiderThanAsked) {
+  auto tank = BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(0.3f, 0.2f, 0.1f));
+  std::vector<Vec3r> samples;
+  const Real gap = 0.01f;
+  tank->sampleSurface(gap, samples);
+  std::mt19937 random(3);
+  std::uniform_real_distribution<float> u(0, 1);
+  std::vector<Vec3r> probes;  // random points on the floor and on the x = 0 wall
+  for (int k = 0; k < 300; ++k) {
+    probes.emplace_back(0.3f * u(random), 0.2f * u(random), 0.0f);
+    probes.emplace_back(0.0f, 0.2f * u(random), 0.1f * u(random));
+  }
+  // On a square grid of spacing <= gap, no point is farther than gap / sqrt(2).
+  EXPECT_LE(largestHole(samples, probes), gap * 0.7072f);
+}
+
+TEST(MeshSampling, SevenPointsPerTriangleSharedOnce) {
+  TriangleMesh mesh;
+  mesh.vertices = {{0, 0, 0}, {0.01f, 0, 0}, {0, 0.01f, 0}, {0.01f, 0.01f, 0}};
+  mesh.triangles = {{0, 1, 2}};
+  EXPECT_EQ(sampleTrianglesSeed(mesh, 0.01f).size(), 7u);
+  mesh.triangles.push_back({1, 3, 2});
+  // 4 vertices + 5 edge midpoints + 2 centroids
+  EXPECT_EQ(sampleTrianglesSeed(mesh, 0.01f).size(), 11u);
+}
+
+TEST(MeshSampling, SubdividesUntilNoGapExceedsTheLimit) {
+  TriangleMesh mesh;
+  mesh.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  mesh.triangles = {{0, 1, 2}};
+  const Real gap = 0.05f;
+  std::size_t subdivided = 0;
+  const std::vector<Vec3r> samples = sampleTrianglesSeed(mesh, gap, &subdivided);
+  EXPECT_EQ(subdivided, 1u);
+  std::mt19937 random(5);
+  std::uniform_real_distribution<float> u(0, 1);
+  std::vector<Vec3r> probes;
+  for (int k = 0; k < 500; ++k) {
+    float a = u(random), b = u(random);
+    if (a + b > 1) a = 1 - a, b = 1 - b;
+    probes.emplace_back(a, b, 0);
+  }
+  EXPECT_LE(largestHole(samples, probes), gap);
+}
+
+TEST(MeshBoundary, CubeInsideTestMirrorsAndTransform) {
+  const auto path = writeTemp("cube.obj", kCubeObj);
+  MeshObstacleOptions options;
+  options.transform.scale = 2;
+  options.transform.translation = Vec3r(1, 0, 0);
+  auto cube = MeshBoundary::load(path, options);
+  EXPECT_EQ(cube->triangleCount(), 12u);
+  EXPECT_TRUE(cube->isInside(Vec3r(2, 1, 1)));
+  EXPECT_FALSE(cube->isInside(Vec3r(0.9f, 1, 1)));
+  EXPECT_FALSE(cube->isInside(Vec3r(2, 1, 2.1f)));
+  EXPECT_NEAR(cube->windingNumber(Vec3r(2.5f, 0.5f, 1.5f)), 1.0, 1e-6);
+  std::vector<MirrorMap> maps;
+  cube->mirrorMaps(Vec3r(2, 1, 2.05f), 0.1f, 4, maps);  // 0.05 above the top face z = 2
+  ASSERT_EQ(maps.size(), 1u);
+  EXPECT_TRUE(maps[0].apply(Vec3r(2, 1, 2.05f)).isApprox(Vec3r(2, 1, 1.95f), 1e-5f));
+  maps.clear();
+  cube->mirrorMaps(Vec3r(2, 1, 1), 0.1f, 4, maps);  // inside: no mirror
+  EXPECT_TRUE(maps.empty());
+  std::filesystem::remove(path);
+}
+
+TEST(MeshBoundary, OpenBoxIsClosedByHoleFilling) {
+  // The cube without its top (two triangles): one square hole.
+  std::string open = kCubeObj;
+  open = open.substr(0, open.find("f 5 6 7")) + "f 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n";
+  const auto path = writeTemp("open.obj", open);
+  EXPECT_GT(countBorderEdges(loadMeshFile(path)), 0u);
+  auto box = MeshBoundary::load(path, MeshObstacleOptions());
+  EXPECT_EQ(countBorderEdges(box->mesh()), 0u);
+  EXPECT_TRUE(box->isInside(Vec3r(0.5f, 0.5f, 0.9f)));
+  std::filesystem::remove(path);
+}
+
+TEST(MeshBoundary, BadFilesAreInputErrorsNamingTheFile) {
+  try {
+    MeshBoundary::load("/nonexistent/dir/bunny.ply", MeshObstacleOptions());
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/dir/bunny.ply"), std::string::npos);
+  }
+  const auto empty = writeTemp("empty.obj", "# nothing\n");
+  try {
+    MeshBoundary::load(empty, MeshObstacleOptions());
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(empty.string()), std::string::npos);
+  }
+  std::filesystem::remove(empty);
+}
+
+namespace {
+void checkBunny(const std::string& path) {
+  MeshObstacleOptions options;
+  options.targetTriangles = 900;
+  std::ostringstream log;
+  auto bunny = MeshBoundary::load(path, options, &log);
+  std::cout << log.str();
+  EXPECT_LE(bunny->triangleCount(), 900u);
+  EXPECT_GE(bunny->triangleCount(), 850u);
+  EXPECT_EQ(countBorderEdges(bunny->mesh()), 0u);
+  // Outward orientation: the winding number far away is 0 and inside the body 1.
+  Vec3r lo, hi;
+  bunny->bounds(lo, hi);
+  EXPECT_NEAR(bunny->windingNumber(hi + (hi - lo)), 0.0, 1e-6);
+  const Vec3r centre = Real(0.5) * (lo + hi);  // inside the body
+  EXPECT_TRUE(bunny->isInside(centre));
+  EXPECT_NEAR(bunny->windingNumber(centre), 1.0, 1e-3);
+  EXPECT_FALSE(bunny->isInside(hi + Vec3r::Constant(0.01f)));
+}
+} // namespace
+
+TEST(MeshBoundary, BunnySimplifiesTo900ClosedTriangles) {
+  // The scene's asset: the closed full-resolution scan.
+  const std::string path = std::string(CASCADE_SOURCE_DIR) + "/scenes/assets/bunny_full.obj";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " missing";
+  checkBunny(path);
+}
+
+TEST(MeshBoundary, BunnyWithHolesIsClosedThenSimplified) {
+  // The 3,851-triangle scan has holes in its base and cracks: filled, then simplified.
+  const std::string path = std::string(CASCADE_SOURCE_DIR) + "/../shared/assets/bunny_res3.ply";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " missing";
+  checkBunny(path);
+}
+
+} // namespace cascade
