@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <future>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -430,33 +431,58 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
   bool otherFailure = false;
   const auto inputsTime = std::max(hasSolids ? modified(solidsPath) : fs::file_time_type::min(),
                                    modified(layout.scene()));
+  // Frames whose PNG is up to date (newer than its inputs, same settings) are skipped.
+  std::vector<std::size_t> todo;
   for (std::size_t index = 0; index < frames.size(); ++index) {
+    const FrameInput& input = frames[index];
+    const fs::path target = layout.render(input.frame);
+    if (!options.force && fs::is_regular_file(input.path, error) && fs::is_regular_file(target, error) &&
+        modified(target) >= std::max(modified(input.path), inputsTime)) {
+      const PngText stored = readPngText(target);
+      const auto found = stored.find("cascade-render");
+      if (found != stored.end() && found->second == signature) {
+        report.skipped.push_back(input.frame);
+        if (options.contactSheet) {
+          try {
+            tiles.push_back({input.frame, resizeImage(readPng(target), thumbnailWidth, thumbnailHeight)});
+          } catch (const InputError&) {
+          }
+        }
+        if (log) log("render: frame " + std::to_string(input.frame) + " up to date (" + target.string() + ")");
+        continue;
+      }
+    }
+    todo.push_back(index);
+  }
+
+  // Render; the next frame's file is read on another thread meanwhile.
+  struct Loaded {
+    std::optional<TriangleMesh> fluid;
+    std::optional<ParticleSpheres> spheres;
+  };
+  auto load = [&](std::size_t index) {
+    const FrameInput& input = frames[index];
+    std::error_code missing;
+    if (!fs::is_regular_file(input.path, missing))
+      throw InputError(input.path.string() + ": no such file (frame " + std::to_string(input.frame) + ")");
+    Loaded loaded;
+    if (options.particles) loaded.spheres = loadParticles(input.path, speedScale);
+    else loaded.fluid = loadMesh(input.path);
+    return loaded;
+  };
+  std::future<Loaded> next;
+  if (!todo.empty()) next = std::async(std::launch::async, load, todo.front());
+  for (std::size_t k = 0; k < todo.size(); ++k) {
+    const std::size_t index = todo[k];
     const FrameInput& input = frames[index];
     const fs::path target = layout.render(input.frame);
     const auto frameStart = Clock::now();
     try {
-      if (!fs::is_regular_file(input.path, error))
-        throw InputError(input.path.string() + ": no such file (frame " + std::to_string(input.frame) + ")");
-      // Up to date: newer than its inputs and made with these settings.
-      if (!options.force && fs::is_regular_file(target, error) &&
-          modified(target) >= std::max(modified(input.path), inputsTime)) {
-        const PngText stored = readPngText(target);
-        const auto found = stored.find("cascade-render");
-        if (found != stored.end() && found->second == signature) {
-          report.skipped.push_back(input.frame);
-          if (options.contactSheet) tiles.push_back({input.frame, resizeImage(readPng(target), thumbnailWidth, thumbnailHeight)});
-          if (log) log("render: frame " + std::to_string(input.frame) + " up to date (" + target.string() + ")");
-          continue;
-        }
-      }
-      Image image;
-      if (options.particles) {
-        const ParticleSpheres spheres = loadParticles(input.path, speedScale);
-        image = renderer.render(frameScene(nullptr, &spheres, camera));
-      } else {
-        const TriangleMesh fluid = loadMesh(input.path);
-        image = renderer.render(frameScene(&fluid, nullptr, camera));
-      }
+      std::future<Loaded> current = std::move(next);
+      if (k + 1 < todo.size()) next = std::async(std::launch::async, load, todo[k + 1]);
+      const Loaded loaded = current.get();
+      const Image image = renderer.render(frameScene(loaded.fluid ? &*loaded.fluid : nullptr,
+                                                     loaded.spheres ? &*loaded.spheres : nullptr, camera));
       writePng(target, image, false, text);
       report.written.push_back(target);
       report.rendered.push_back(input.frame);
@@ -466,9 +492,8 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
       if (log) {
         const double mean = renderSeconds / double(report.rendered.size());
         char line[512];
-        std::snprintf(line, sizeof line, "render: frame %d (%zu/%zu) %.2f s, ETA %.0f s -> %s", input.frame,
-                      index + 1, frames.size(), seconds, mean * double(frames.size() - index - 1),
-                      target.string().c_str());
+        std::snprintf(line, sizeof line, "render: frame %d (%zu/%zu) %.2f s, ETA %.0f s -> %s", input.frame, k + 1,
+                      todo.size(), seconds, mean * double(todo.size() - k - 1), target.string().c_str());
         log(line);
       }
     } catch (const InputError& e) {
@@ -480,6 +505,8 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
       if (log) log(report.errors.back());
     }
   }
+  if (options.contactSheet)  // in frame order
+    std::sort(tiles.begin(), tiles.end(), [](const auto& a, const auto& b) { return a.frame < b.frame; });
   report.badInput = !report.errors.empty() && !otherFailure;
   if (!report.rendered.empty()) report.secondsPerFrame = renderSeconds / double(report.rendered.size());
 
