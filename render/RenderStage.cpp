@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <fstream>
 #include <future>
+#include <memory>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -253,7 +254,7 @@ void RenderReport::throwIfFailed() const {
   std::string message = errors.front();
   if (errors.size() > 1) message += " (and " + std::to_string(errors.size() - 1) + " more failed frames)";
   if (!rendered.empty() || !skipped.empty())
-    message += "; " + std::to_string(rendered.size() + skipped.size()) + " other frames rendered";
+    message += "; the " + std::to_string(rendered.size() + skipped.size()) + " other frames are done";
   if (badInput) throw InputError(message);
   throw std::runtime_error(message);
 }
@@ -408,8 +409,14 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
   const float stageHeight = stage.isEmpty() ? 1.0f : std::max(stage.sizes().z(), 0.05f);
   const float speedScale = std::sqrt(2.0f * scene.gravity * stageHeight);
 
-  PreviewRenderer renderer(options.width, options.height, options.samples);
-  report.glDescription = renderer.glDescription();
+  std::unique_ptr<PreviewRenderer> rendererStorage;  // made on first use (none if all frames are up to date)
+  auto renderer = [&]() -> PreviewRenderer& {
+    if (!rendererStorage) {
+      rendererStorage = std::make_unique<PreviewRenderer>(options.width, options.height, options.samples);
+      report.glDescription = rendererStorage->glDescription();
+    }
+    return *rendererStorage;
+  };
   const std::string signature = settingsSignature(options, axis);
   const PngText text = {{"Software", "Cascade render"}, {"cascade-render", signature}};
 
@@ -481,7 +488,7 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
       std::future<Loaded> current = std::move(next);
       if (k + 1 < todo.size()) next = std::async(std::launch::async, load, todo[k + 1]);
       const Loaded loaded = current.get();
-      const Image image = renderer.render(frameScene(loaded.fluid ? &*loaded.fluid : nullptr,
+      const Image image = renderer().render(frameScene(loaded.fluid ? &*loaded.fluid : nullptr,
                                                      loaded.spheres ? &*loaded.spheres : nullptr, camera));
       writePng(target, image, false, text);
       report.written.push_back(target);
@@ -527,7 +534,7 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
         else fluid = loadMesh(input.path);
         for (int view = 0; view < options.turntableViews; ++view) {
           const Camera orbit = camera.orbited(float(2.0 * 3.14159265358979 * view / options.turntableViews));
-          const Image image = renderer.render(frameScene(fluid ? &*fluid : nullptr, spheres ? &*spheres : nullptr, orbit));
+          const Image image = renderer().render(frameScene(fluid ? &*fluid : nullptr, spheres ? &*spheres : nullptr, orbit));
           const fs::path target = layout.renderDir() / ("turntable." + OutputLayout::pad(view + 1) + ".png");
           writePng(target, image, false, text);
           report.written.push_back(target);

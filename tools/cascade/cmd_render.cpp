@@ -51,10 +51,11 @@ void addRenderCommand(CLI::App& app) {
     char summary[512];
     std::snprintf(summary, sizeof summary,
                   "render: %zu frames rendered, %zu up to date, %zu failed; %.3f s per frame, %.1f s in all "
-                  "(%dx%d, %d samples, mesh up %s; %s)\n",
+                  "(%dx%d, %d samples, mesh up %s%s%s)\n",
                   report.rendered.size(), report.skipped.size(), report.errors.size(), report.secondsPerFrame,
                   report.seconds, options->render.width, options->render.height, options->render.samples,
-                  report.meshUp.c_str(), report.glDescription.c_str());
+                  report.meshUp.c_str(), report.glDescription.empty() ? "" : "; ",
+                  report.glDescription.c_str());
     std::cout << summary << std::flush;
     report.throwIfFailed();
   });
