@@ -1,0 +1,508 @@
+#include "libsph/solver/TimeStepDFSPH.h"
+
+#include "libsph/Errors.h"
+#include "libsph/Kernels.h"
+#include "libsph/boundary/BoundaryParticles.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <istream>
+#include <limits>
+#include <ostream>
+
+namespace cascade {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double millisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+static const Real kWarmStartFactor = std::getenv("DFSPH_WARM") ? Real(std::atof(std::getenv("DFSPH_WARM"))) : Real(0.5);     // B&K 2017 / SPlisHSPlasH: half the last stiffness
+constexpr int kMinDensityIterations = 2;         // SPlisHSPlasH's minimum for the constant-density solve
+constexpr std::uint32_t kMinDivergenceNeighbors = 20;  // B&K 2017: no divergence solve at the surface
+constexpr std::size_t kChunk = 1024;
+constexpr std::uint32_t kNotInLayer = ~std::uint32_t(0);             // fixed chunks: order-independent (deterministic) sums
+
+/// Sum over [0, n) of f(i) in double, in fixed chunks added in order (the
+/// same result whatever the thread schedule: resumed bakes stay bit-identical).
+template <typename F>
+double deterministicSum(std::size_t n, F&& f) {
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  std::vector<double> partial(chunks, 0.0);
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    double sum = 0;
+    const std::size_t end = std::min(n, (c + 1) * kChunk);
+    for (std::size_t i = c * kChunk; i < end; ++i) sum += f(i);
+    partial[c] = sum;
+  });
+  double total = 0;
+  for (double p : partial) total += p;
+  return total;
+}
+
+template <typename F>
+void forEachParticle(std::size_t n, F&& f) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) f(i);
+  });
+}
+
+template <typename T>
+void keepIf(std::vector<T>& values, const std::vector<char>& remove) {
+  if (values.size() != remove.size()) return;
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < values.size(); ++i)
+    if (!remove[i]) values[out++] = values[i];
+  values.resize(out);
+}
+
+template <typename T>
+void writeVector(std::ostream& out, const std::vector<T>& values) {
+  const std::uint64_t n = values.size();
+  out.write(reinterpret_cast<const char*>(&n), sizeof(n));
+  out.write(reinterpret_cast<const char*>(values.data()), std::streamsize(n * sizeof(T)));
+}
+
+template <typename T>
+void readVector(std::istream& in, std::vector<T>& values) {
+  std::uint64_t n = 0;
+  in.read(reinterpret_cast<char*>(&n), sizeof(n));
+  if (!in || n != values.size()) throw InputError("checkpoint: DFSPH warm-start data does not match the particles");
+  in.read(reinterpret_cast<char*>(values.data()), std::streamsize(n * sizeof(T)));
+  if (!in) throw InputError("checkpoint: truncated DFSPH warm-start data");
+}
+
+} // namespace
+
+TimeStepNeeds TimeStepDFSPH::needs(const SimulationSettings&, const DerivedConstants&) const {
+  TimeStepNeeds needs;
+  needs.speedOfSoundInCfl = false;  // incompressible: CFL on the velocity only
+  needs.mirrorParticles = true;     // the boundary model: type II mirror particles (SEED section 2.2)
+  return needs;
+}
+
+void TimeStepDFSPH::resize(std::size_t count) {
+  mDensityKappa.resize(count, Real(0));
+  mDivergenceKappa.resize(count, Real(0));
+}
+
+void TimeStepDFSPH::permute(const std::vector<std::size_t>& order) {
+  for (std::vector<Real>* values : {&mDensityKappa, &mDivergenceKappa}) {
+    if (values->size() != order.size()) continue;
+    std::vector<Real> permuted(order.size());
+    for (std::size_t k = 0; k < order.size(); ++k) permuted[k] = (*values)[order[k]];
+    values->swap(permuted);
+  }
+}
+
+void TimeStepDFSPH::removeIf(const std::vector<char>& remove) {
+  keepIf(mDensityKappa, remove);
+  keepIf(mDivergenceKappa, remove);
+}
+
+void TimeStepDFSPH::save(std::ostream& out) const {
+  writeVector(out, mDensityKappa);
+  writeVector(out, mDivergenceKappa);
+  out.write(reinterpret_cast<const char*>(&mRegularStep), sizeof(mRegularStep));
+}
+
+void TimeStepDFSPH::restore(std::istream& in) {
+  readVector(in, mDensityKappa);
+  readVector(in, mDivergenceKappa);
+  in.read(reinterpret_cast<char*>(&mRegularStep), sizeof(mRegularStep));
+  if (!in) throw InputError("checkpoint: truncated DFSPH state");
+}
+
+/// Step 1: densities, kernel gradients (kept per pair for the solves), factors;
+/// the mirror (type II) particles of the boundary layer as ghost pairs.
+void TimeStepDFSPH::prepare(StepContext& c) {
+  Particles& particles = c.particles;
+  const std::size_t n = particles.size();
+  const Real h = c.constants.supportRadius, h2 = h * h;
+  const KernelCubicSpline kernel(h);
+  const BoundaryParticles& boundary = c.boundary;
+
+  if (mLatticeSupport != h) {
+    // Rest volume: the initial lattice of the fluid spacing is at rest density.
+    const Real s = c.settings.fluid.spacing;
+    const int reach = static_cast<int>(std::ceil(h / s));
+    double sum = 0, gradientSum = 0;
+    for (int z = -reach; z <= reach; ++z)
+      for (int y = -reach; y <= reach; ++y)
+        for (int x = -reach; x <= reach; ++x) {
+          const Vec3r r = s * Vec3r(Real(x), Real(y), Real(z));
+          sum += kernel.value(r.norm());
+          gradientSum += kernel.gradient(r).squaredNorm();
+        }
+    mRestVolume = static_cast<Real>(1.0 / sum);
+    // alpha's denominator for a full lattice neighbourhood; 1e-4 of it is the floor below which
+    // a particle (nearly alone) gets alpha = 0 instead of an unbounded stiffness.
+    mFactorFloor = static_cast<Real>(1e-4 * gradientSum * double(mRestVolume) * double(mRestVolume));
+    mLatticeSupport = h;
+  }
+  const Real volume = mRestVolume;
+  const NeighborLists& nl = c.neighbors;
+
+  // Ghosts: for each layer particle, the mirror images (of itself and its neighbours) within h.
+  const std::vector<std::uint32_t>& layer = boundary.layer();
+  const bool mirrors = boundary.mirrorOffsets().size() == n + 1 && !boundary.mirrors().empty();
+  mLayerIndex.assign(n, kNotInLayer);
+  mGhostOffsets.assign(1, 0);
+  mGhostSource.clear();
+  mGhostMap.clear();
+  mGhostGradient.clear();
+  if (mirrors) {
+    const std::vector<MirrorMap>& maps = boundary.mirrors();
+    const std::vector<std::uint32_t>& mapOffsets = boundary.mirrorOffsets();
+    auto forEachGhost = [&](std::uint32_t i, auto&& visit) {
+      const Vec3r xi = particles.position[i];
+      for (std::uint32_t m = mapOffsets[i]; m < mapOffsets[i + 1]; ++m) {
+        const MirrorMap& map = maps[m];
+        auto image = [&](std::uint32_t j) {
+          const Vec3r r = xi - map.apply(particles.position[j]);
+          if (r.squaredNorm() < h2) visit(j, m, r);
+        };
+        image(i);
+        for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j) image(*j);
+      }
+    };
+    mGhostOffsets.assign(layer.size() + 1, 0);
+    tbb::parallel_for(std::size_t(0), layer.size(), [&](std::size_t k) {
+      std::uint32_t count = 0;
+      forEachGhost(layer[k], [&](std::uint32_t, std::uint32_t, const Vec3r&) { ++count; });
+      mGhostOffsets[k + 1] = count;
+      mLayerIndex[layer[k]] = static_cast<std::uint32_t>(k);
+    });
+    for (std::size_t k = 0; k < layer.size(); ++k) mGhostOffsets[k + 1] += mGhostOffsets[k];
+    const std::size_t total = mGhostOffsets.back();
+    mGhostSource.resize(total);
+    mGhostMap.resize(total);
+    mGhostGradient.resize(total);
+    mGhostValue.resize(total);
+    tbb::parallel_for(std::size_t(0), layer.size(), [&](std::size_t k) {
+      std::uint32_t g = mGhostOffsets[k];
+      forEachGhost(layer[k], [&](std::uint32_t j, std::uint32_t m, const Vec3r& r) {
+        mGhostSource[g] = j;
+        mGhostMap[g] = m;
+        mGhostGradient[g] = volume * kernel.gradient(r);
+        mGhostValue[g] = volume * kernel.value(r.norm());
+        ++g;
+      });
+    });
+  }
+
+  mPairGradient.resize(nl.totalCount());
+  mFactor.resize(n);
+  mDensityRatio.resize(n);
+  mNeighborCount.resize(n);
+  const Real selfValue = kernel.value(0);
+  const Real restDensity = c.settings.fluid.restDensity;
+  const Real floor = mFactorFloor;
+  forEachParticle(n, [&](std::size_t i) {
+    const Vec3r xi = particles.position[i];
+    Real density = volume * selfValue;
+    Vec3r gradientSum = Vec3r::Zero();
+    Real gradientSquares = 0;
+    for (std::uint32_t k = nl.offsets[i]; k < nl.offsets[i + 1]; ++k) {
+      const Vec3r r = xi - particles.position[nl.indices[k]];
+      density += volume * kernel.value(r.norm());
+      const Vec3r g = volume * kernel.gradient(r);
+      mPairGradient[k] = g;
+      gradientSum += g;
+      gradientSquares += g.squaredNorm();
+    }
+    std::uint32_t count = nl.count(i);
+    const std::uint32_t l = mLayerIndex[i];
+    if (l != kNotInLayer) {
+      for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g) {
+        density += mGhostValue[g];
+        gradientSum += mGhostGradient[g];
+        gradientSquares += mGhostGradient[g].squaredNorm();
+      }
+      count += mGhostOffsets[l + 1] - mGhostOffsets[l];
+    }
+    const Real denominator = gradientSum.squaredNorm() + gradientSquares;  // B&K 2017 eq. 10
+    mFactor[i] = denominator > floor ? Real(1) / denominator : Real(0);
+    mDensityRatio[i] = density;
+    mNeighborCount[i] = count;
+    particles.density[i] = restDensity * density;
+  });
+}
+
+void TimeStepDFSPH::advance(StepContext& c, Real dt) {
+  Particles& particles = c.particles;
+  const std::size_t n = particles.size();
+  resize(n);
+  mStatistics = Statistics();
+  std::fill(c.obstacleForce.begin(), c.obstacleForce.end(), Vec3d::Zero());
+  if (n == 0) return;
+  const SolverSettings& solver = c.settings.solver;
+  const NeighborLists& nl = c.neighbors;
+
+  auto start = Clock::now();
+  prepare(c);
+  c.timings.density += millisecondsSince(start);
+
+  start = Clock::now();
+  mResidual.resize(n);
+  mKappaStep.resize(n);
+  std::vector<Vec3r>& velocity = particles.velocity;
+
+  const std::vector<MirrorMap>& maps = c.boundary.mirrors();
+  const bool noSlip = c.settings.boundary.slip == MirrorSlip::NoSlip;
+  // Velocity update of B&K 2017 alg. 2/3 for the stiffnesses in `kappa`, a mirror
+  // particle taking the stiffness of its source:
+  // v_i -= dt sum_j V (kappa_i + kappa_j) grad W_ij (fluid and mirror neighbours).
+  auto applyKappa = [&](const std::vector<Real>& kappa) {
+    forEachParticle(n, [&](std::size_t i) {
+      const Real ki = kappa[i];
+      Vec3r dv = Vec3r::Zero();
+      for (std::uint32_t k = nl.offsets[i]; k < nl.offsets[i + 1]; ++k) {
+        const Real sum = ki + kappa[nl.indices[k]];
+        if (sum != Real(0)) dv += sum * mPairGradient[k];
+      }
+      const std::uint32_t l = mLayerIndex[i];
+      if (l != kNotInLayer)
+        for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g)
+          dv += (ki + kappa[mGhostSource[g]]) * mGhostGradient[g];
+      velocity[i] -= dt * dv;
+    });
+  };
+  // D(rho_i / rho_0)/Dt = sum_j V (v_i - v_j) . grad W_ij over fluid and mirror neighbours
+  // (a mirror moves with its source, velocity mirrored (free slip) or reversed (no slip)).
+  auto densityRate = [&](std::size_t i) {
+    const Vec3r vi = velocity[i];
+    Real rate = 0;
+    for (std::uint32_t k = nl.offsets[i]; k < nl.offsets[i + 1]; ++k)
+      rate += (vi - velocity[nl.indices[k]]).dot(mPairGradient[k]);
+    const std::uint32_t l = mLayerIndex[i];
+    if (l != kNotInLayer)
+      for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g) {
+        const Vec3r& vj = velocity[mGhostSource[g]];
+        const Vec3r mirrored = noSlip ? Vec3r(-vj) : Vec3r(maps[mGhostMap[g]].linear * vj);
+        rate += (vi - mirrored).dot(mGhostGradient[g]);
+      }
+    return rate;
+  };
+  // Divergence residual (relative density change per second), compression only.
+  auto divergenceResidual = [&](std::size_t i) -> double {
+    Real r = mNeighborCount[i] < kMinDivergenceNeighbors ? Real(0) : std::max(densityRate(i), Real(0));
+    mResidual[i] = r;
+    return r;
+  };
+  // A step much shorter than the CFL step (the Simulation lands on frame and probe
+  // times) removes only its share dt / dt_cfl of the density error already there,
+  // not all of it within dt (that would need speeds of error * spacing / dt).
+  double maxSpeed2 = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n, 4096), 0.0,
+      [&](const auto& range, double m) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) m = std::max(m, double(velocity[i].squaredNorm()));
+        return m;
+      },
+      [](double a, double b) { return std::max(a, b); });
+  // Reference: the CFL step, bounded by the last regular step (the settings' bounds
+  // are changed by the Simulation for the shortened step).
+  double reference = maxSpeed2 > 0 ? double(solver.cflFactor) * c.constants.supportRadius / std::sqrt(maxSpeed2)
+                                   : std::numeric_limits<double>::infinity();
+  if (mRegularStep > 0) reference = std::min(reference, mRegularStep);
+  const bool shortStep = std::isfinite(reference) && double(dt) < 0.5 * reference;
+  const Real errorShare = shortStep ? static_cast<Real>(double(dt) / reference) : Real(1);
+  if (!shortStep) mRegularStep = dt;
+  // Predicted relative compression rho*/rho_0 - 1 >= 0.
+  auto densityResidual = [&](std::size_t i) -> double {
+    const Real r = std::max(errorShare * (mDensityRatio[i] - Real(1)) + dt * densityRate(i), Real(0));
+    mResidual[i] = r;
+    return r;
+  };
+  const int maxIterations = std::max(1, solver.maxIterations);
+
+  // A short step's stiffnesses are not those of a regular step: keep the warm starts.
+  std::vector<Real> savedDensityKappa, savedDivergenceKappa;
+  if (shortStep) {
+    savedDensityKappa = mDensityKappa;
+    savedDivergenceKappa = mDivergenceKappa;
+  }
+
+  // --- 2. divergence-free solve (B&K 2017 alg. 2) ---
+  {
+    double error = deterministicSum(n, divergenceResidual);
+    // Warm start where the velocity field still compresses.
+    forEachParticle(n, [&](std::size_t i) {
+      mDivergenceKappa[i] = mResidual[i] > 0 ? kWarmStartFactor * mDivergenceKappa[i] : Real(0);
+    });
+    applyKappa(mDivergenceKappa);
+    error = deterministicSum(n, divergenceResidual);
+    const double tolerance = double(solver.divergenceTolerance) / double(dt) * double(n);
+    int iterations = 0;
+    while (!std::getenv("DFSPH_NODIV") && iterations < maxIterations && (iterations < 1 || error > tolerance)) {
+      forEachParticle(n, [&](std::size_t i) {
+        mKappaStep[i] = mResidual[i] * mFactor[i] / dt;
+        mDivergenceKappa[i] += mKappaStep[i];
+      });
+      applyKappa(mKappaStep);
+      error = deterministicSum(n, divergenceResidual);
+      ++iterations;
+    }
+    mStatistics.divergenceIterations = iterations;
+    mStatistics.divergenceError = error / double(n) * double(dt);
+  }
+  c.timings.forces += millisecondsSince(start);
+
+  // --- 3. non-pressure accelerations: gravity, viscosity ---
+  start = Clock::now();
+  {
+    const Vec3r gravity = solver.gravity;
+    const Real nu = c.settings.fluid.viscosity / c.settings.fluid.restDensity;
+    const Real h = c.constants.supportRadius;
+    const Real epsilon2 = Real(0.01) * h * h;
+    // Monaghan (1992) artificial viscosity Pi_ij = -alpha h c_ref (v_ij . x_ij) / (rho^_ij (|x_ij|^2 + 0.01 h^2))
+    // for approaching pairs, with c_ref = the scene's expected speed (DFSPH has no speed of sound).
+    const Real artificial = solver.artificialViscosity * h * c.constants.expectedSpeed;
+    std::vector<Vec3r>& acceleration = c.acceleration;
+    acceleration.resize(n);
+    forEachParticle(n, [&](std::size_t i) {
+      Vec3r a = gravity;
+      if (nu > 0 || artificial > 0) {
+        const Vec3r xi = particles.position[i], vi = velocity[i];
+        for (std::uint32_t k = nl.offsets[i]; k < nl.offsets[i + 1]; ++k) {
+          const std::uint32_t j = nl.indices[k];
+          const Vec3r x = xi - particles.position[j];
+          const Real vx = (vi - velocity[j]).dot(x);
+          const Real denominator = x.squaredNorm() + epsilon2;
+          // Standard SPH viscosity (Morris 1997 form, as in SPlisHSPlasH):
+          // a_i += 2 (d + 2) nu sum_j V / rho^_j (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2) grad W_ij
+          Real scalar = Real(10) * nu * vx / (mDensityRatio[j] * denominator);
+          // a_i -= sum_j V Pi_ij grad W_ij  (V = m / rho_0)
+          if (vx < 0 && artificial > 0)
+            scalar += artificial * vx / (Real(0.5) * (mDensityRatio[i] + mDensityRatio[j]) * denominator);
+          a += scalar * mPairGradient[k];
+        }
+      }
+      acceleration[i] = a;
+    });
+    const double maxA = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, n, 4096), 0.0,
+        [&](const auto& range, double m) {
+          for (std::size_t i = range.begin(); i != range.end(); ++i) {
+            velocity[i] += dt * acceleration[i];
+            m = std::max(m, double(acceleration[i].squaredNorm()));
+          }
+          return m;
+        },
+        [](double a, double b) { return std::max(a, b); });
+    c.maxAcceleration = static_cast<Real>(std::sqrt(maxA));
+  }
+  c.timings.integrate += millisecondsSince(start);
+
+  // --- 4. constant-density solve (B&K 2017 alg. 3) ---
+  start = Clock::now();
+  {
+    double error = deterministicSum(n, densityResidual);
+    forEachParticle(n, [&](std::size_t i) {
+      mDensityKappa[i] = mResidual[i] > 0 ? kWarmStartFactor * mDensityKappa[i] : Real(0);
+    });
+    applyKappa(mDensityKappa);
+    error = deterministicSum(n, densityResidual);
+    const double tolerance = double(solver.densityTolerance) * double(n);
+    const Real inverseDt2 = Real(1) / (dt * dt);
+    int iterations = 0;
+    while (iterations < maxIterations && (iterations < kMinDensityIterations || error > tolerance)) {
+      forEachParticle(n, [&](std::size_t i) {
+        mKappaStep[i] = mResidual[i] * mFactor[i] * inverseDt2;
+        mDensityKappa[i] += mKappaStep[i];
+      });
+      applyKappa(mKappaStep);
+      error = deterministicSum(n, densityResidual);
+      if (std::getenv("DFSPH_DEBUG")) std::fprintf(stderr, "  it %d err %g\n", iterations, error / double(n));
+      ++iterations;
+    }
+    mStatistics.densityIterations = iterations;
+    mStatistics.densityError = error / double(n);
+  }
+  c.timings.forces += millisecondsSince(start);
+
+  // --- 5. force on the boundaries, positions, pressure ---
+  start = Clock::now();
+  const std::size_t boundaryCount = c.obstacleForce.size();
+  const std::vector<std::uint32_t>& layer = c.boundary.layer();
+  if (boundaryCount > 0 && !mGhostSource.empty()) {
+    // Force on a solid = -(impulse its mirror particles gave the fluid) / dt
+    // = sum m (kappa_i + kappa_j) V grad W_ij' over the mirror pairs, with kappa the
+    // step's total (divergence and density solves); summed in fixed chunks in order.
+    const Real mass = c.constants.particleMass;
+    constexpr std::size_t kLayerChunk = 256;
+    const std::size_t chunks = (layer.size() + kLayerChunk - 1) / kLayerChunk;
+    std::vector<Vec3d> chunkForce(chunks * boundaryCount, Vec3d::Zero());
+    tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t chunk) {
+      Vec3d* force = chunkForce.data() + chunk * boundaryCount;
+      const std::size_t end = std::min(layer.size(), (chunk + 1) * kLayerChunk);
+      for (std::size_t k = chunk * kLayerChunk; k < end; ++k) {
+        const std::uint32_t i = layer[k];
+        const Real ki = mDensityKappa[i] + mDivergenceKappa[i];
+        for (std::uint32_t g = mGhostOffsets[k]; g < mGhostOffsets[k + 1]; ++g) {
+          const std::uint32_t j = mGhostSource[g];
+          const std::uint32_t owner = maps[mGhostMap[g]].boundary;
+          if (owner >= boundaryCount) continue;
+          const Real kj = mDensityKappa[j] + mDivergenceKappa[j];
+          force[owner] += (mass * (ki + kj) * mGhostGradient[g]).cast<double>();
+        }
+      }
+    });
+    for (std::size_t chunk = 0; chunk < chunks; ++chunk)
+      for (std::size_t b = 0; b < boundaryCount; ++b) c.obstacleForce[b] += chunkForce[chunk * boundaryCount + b];
+  }
+  c.timings.boundary += millisecondsSince(start);
+
+  start = Clock::now();
+  if (!layer.empty() && !maps.empty() && !std::getenv("DFSPH_NOCLAMP")) {
+    // No penetration: the solves only resist compression, so a particle of the
+    // (under-dense) free surface could creep into a wall. Its normal velocity
+    // towards each wall it mirrors across (single reflections: trace 1) is
+    // limited so that it stays at least a quarter spacing off the wall.
+    const Real minDistance = Real(0.25) * c.settings.fluid.spacing;
+    const std::vector<std::uint32_t>& mapOffsets = c.boundary.mirrorOffsets();
+    tbb::parallel_for(std::size_t(0), layer.size(), [&](std::size_t k) {
+      const std::uint32_t i = layer[k];
+      const Vec3r xi = particles.position[i];
+      for (std::uint32_t m = mapOffsets[i]; m < mapOffsets[i + 1]; ++m) {
+        const MirrorMap& map = maps[m];
+        if (std::abs(map.linear.trace() - Real(1)) > Real(1e-3)) continue;
+        const Vec3r toImage = xi - map.apply(xi);  // 2 d n
+        const Real twice = toImage.norm();
+        if (!(twice > Real(0))) continue;
+        const Vec3r normal = toImage / twice;
+        const Real distance = Real(0.5) * twice;
+        const Real normalSpeed = velocity[i].dot(normal);
+        const Real limit = (minDistance - distance) / dt;  // speed that lands on minDistance
+        if (normalSpeed < limit) velocity[i] += (std::min(limit, Real(0)) - normalSpeed) * normal;
+      }
+    });
+  }
+  if (shortStep) {
+    mDensityKappa.swap(savedDensityKappa);
+    mDivergenceKappa.swap(savedDivergenceKappa);
+  }
+  {
+    const Real restDensity = c.settings.fluid.restDensity;
+    forEachParticle(n, [&](std::size_t i) {
+      particles.position[i] += dt * velocity[i];
+      const Real rho = particles.density[i];
+      // kappa = rho_0 p / rho^2; both solves' impulses make up the pressure of the step
+      particles.pressure[i] = (mDensityKappa[i] + mDivergenceKappa[i]) * rho * rho / restDensity;
+    });
+  }
+  c.timings.integrate += millisecondsSince(start);
+
+}
+
+} // namespace cascade

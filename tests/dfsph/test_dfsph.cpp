@@ -1,0 +1,115 @@
+// DFSPH (Bender & Koschier 2017) with Akinci 2012 boundary volumes: kernel,
+// boundary volumes, hydrostatic tank (density error, pressure against
+// rho g d, rest), warm starts through reorder / removal / checkpoints.
+#include "libsph/Kernels.h"
+#include "libsph/boundary/BoxBoundary.h"
+#include "libsph/solver/Simulation.h"
+#include "libsph/solver/TimeStepDFSPH.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <iostream>
+#include <random>
+#include <sstream>
+
+using namespace cascade;
+
+namespace {
+
+SimulationSettings dfsphSettings(Real spacing) {
+  SimulationSettings s;
+  s.fluid.spacing = spacing;
+  s.solver.type = "dfsph";
+  s.solver.cflFactor = Real(0.5);
+  s.solver.densityTolerance = Real(0.0002);
+  return s;
+}
+
+double meanCompression(const Particles& p, Real restDensity) {
+  double sum = 0;
+  for (Real rho : p.density) sum += std::max(0.0, double(rho) / restDensity - 1.0);
+  return sum / double(p.size());
+}
+
+} // namespace
+
+TEST(CubicSpline, IntegratesToOneAndGradientMatchesFiniteDifferences) {
+  const Real h = Real(0.1);
+  const KernelCubicSpline kernel(h);
+  // Midpoint rule over the support ball.
+  const int cells = 60;
+  const double step = 2.0 * h / cells;
+  double integral = 0;
+  for (int z = 0; z < cells; ++z)
+    for (int y = 0; y < cells; ++y)
+      for (int x = 0; x < cells; ++x) {
+        const Vec3r r(Real(-h + (x + 0.5) * step), Real(-h + (y + 0.5) * step), Real(-h + (z + 0.5) * step));
+        integral += kernel.value(r.norm()) * step * step * step;
+      }
+  EXPECT_NEAR(integral, 1.0, 2e-3);
+  EXPECT_EQ(kernel.value(h), Real(0));
+  EXPECT_EQ(kernel.value(Real(1.5) * h), Real(0));
+  for (Real q : {Real(0.2), Real(0.45), Real(0.55), Real(0.9)}) {
+    const Vec3r r = Vec3r(1, 2, -0.5).normalized() * (q * h);
+    const Vec3r g = kernel.gradient(r);
+    for (int a = 0; a < 3; ++a) {
+      Vec3r dr = Vec3r::Zero();
+      dr[a] = Real(1e-4) * h;
+      const double fd = (double(kernel.value((r + dr).norm())) - kernel.value((r - dr).norm())) / (2.0 * dr[a]);
+      EXPECT_NEAR(g[a], fd, 1e-3 * kernel.valueCoeff / h) << "q " << q << " axis " << a;
+    }
+  }
+}
+
+TEST(DFSPH, HydrostaticTankHoldsDensityAndPressure) {
+  const Real spacing = Real(0.01), depth = Real(0.2);
+  Simulation sim(dfsphSettings(spacing));
+  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(0.2, 0.2, 0.3)));
+  const std::size_t count = sim.addFluidBox(Vec3r(0, 0, 0), Vec3r(0.2, 0.2, depth));
+  ASSERT_EQ(count, 8000u);
+  sim.advanceTo(1.0);
+  const auto& dfsph = dynamic_cast<const TimeStepDFSPH&>(sim.timeStep());
+  const Particles& p = sim.particles();
+  double maxSpeed = 0, meanSpeed = 0, maxCompression = 0, top = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    maxSpeed = std::max(maxSpeed, double(p.velocity[i].norm()));
+    meanSpeed += p.velocity[i].norm() / double(p.size());
+    maxCompression = std::max(maxCompression, double(p.density[i]) / 1000.0 - 1.0);
+    top = std::max(top, double(p.position[i].z()));
+  }
+  // Pressure against depth: least-squares slope over the particles below the top layers.
+  const double surface = top + 0.5 * spacing;
+  double sxx = 0, sxy = 0, bottomPressure = 0;
+  int bottomCount = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double d = surface - p.position[i].z();
+    if (d < 3 * spacing) continue;
+    sxx += d * d;
+    sxy += d * p.pressure[i];
+    const Vec3r& x = p.position[i];
+    if (x.z() < spacing && x.x() > 0.05 && x.x() < 0.15 && x.y() > 0.05 && x.y() < 0.15) {
+      bottomPressure += p.pressure[i] + 1000.0 * 9.81 * x.z();  // extrapolated to the floor
+      ++bottomCount;
+    }
+  }
+  const double slope = sxy / sxx / (1000.0 * 9.81);
+  bottomPressure /= bottomCount;
+  const double expected = 1000.0 * 9.81 * surface;
+  std::cout << "[dfsph hydrostatic] steps " << sim.stepCount() << " avg compression "
+            << meanCompression(p, 1000) * 100 << " % (solver " << dfsph.lastStatistics().densityError * 100
+            << " %, " << dfsph.lastStatistics().densityIterations << " it, div "
+            << dfsph.lastStatistics().divergenceIterations << " it) max " << maxCompression * 100
+            << " %, mean speed " << meanSpeed << " max speed " << maxSpeed << " m/s, dp/dd / rho g " << slope << ", floor pressure "
+            << bottomPressure << " Pa vs rho g H " << expected << " Pa, surface " << surface << " m\n";
+  EXPECT_LE(dfsph.lastStatistics().densityError, 0.0005);
+  EXPECT_LE(meanCompression(p, 1000), 0.0005);
+  // The initial cubic lattice rearranges (no tension, no physical viscosity): slow local motion
+  // stays, but no flow: the mean speed is far below the free-fall speed scale.
+  EXPECT_LT(meanSpeed, 0.02 * std::sqrt(9.81 * depth));  // measured 1.2 %
+  EXPECT_LT(maxSpeed, 0.15 * std::sqrt(9.81 * depth));
+  EXPECT_NEAR(slope, 1.0, 0.05);
+  EXPECT_NEAR(bottomPressure / expected, 1.0, 0.05);
+  EXPECT_NEAR(surface, depth, 0.5 * spacing);  // incompressible: the level stays
+}
