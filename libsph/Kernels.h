@@ -105,4 +105,39 @@ struct KernelViscosity {
   }
 };
 
+/// Cubic spline (Monaghan 1992) with support h (zero for r >= h), the usual
+/// kernel of DFSPH (Bender & Koschier 2017; SPlisHSPlasH):
+/// W = 8/(pi h^3) (6 q^3 - 6 q^2 + 1) for q = r/h <= 1/2, 16/(pi h^3) (1 - q)^3 for q <= 1.
+struct KernelCubicSpline {
+  Real supportRadius;
+  Real valueCoeff, gradientCoeff, inverseSupport;
+
+  explicit KernelCubicSpline(Real h)
+      : supportRadius(h), valueCoeff(Real(8) / (kPi * h * h * h)),
+        gradientCoeff(Real(48) / (kPi * h * h * h * h)), inverseSupport(Real(1) / h) {}
+
+  Real value(Real r) const {
+    const Real q = r * inverseSupport;
+    if (q >= Real(1)) return Real(0);
+    if (q <= Real(0.5)) return valueCoeff * (Real(6) * q * q * (q - Real(1)) + Real(1));
+    const Real d = Real(1) - q;
+    return valueCoeff * Real(2) * d * d * d;
+  }
+  Real valueFromSquared(Real r2) const { return value(std::sqrt(r2)); }
+  /// grad W = 48/(pi h^4) q (3q - 2) r/|r| (q <= 1/2), -48/(pi h^4) (1 - q)^2 r/|r| (q <= 1); zero at r = 0.
+  Vec3r gradient(const Vec3r& r) const {
+    const Real len = r.norm();
+    const Real q = len * inverseSupport;
+    if (q >= Real(1) || len <= Real(0)) return Vec3r::Zero();
+    Real s;
+    if (q <= Real(0.5)) {
+      s = gradientCoeff * q * (Real(3) * q - Real(2));
+    } else {
+      const Real d = Real(1) - q;
+      s = -gradientCoeff * d * d;
+    }
+    return (s / len) * r;
+  }
+};
+
 } // namespace cascade
