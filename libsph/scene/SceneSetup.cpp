@@ -1,5 +1,6 @@
 #include "libsph/scene/SceneSetup.h"
 
+#include "libsph/Errors.h"
 #include "libsph/boundary/BoxBoundary.h"
 #include "libsph/boundary/MeshBoundary.h"
 #include "libsph/boundary/PlaneBoundary.h"

@@ -1,13 +1,66 @@
+// `cascade bake SCENE.json [-o OUT] [--frames A-B] [--set KEY=VALUE]...` (CONTRACT.md, issue 4).
 #include "Commands.h"
+#include "SceneCommand.h"
 
 #include "libsph/Errors.h"
+#include "libsph/scene/Bake.h"
+#include "libsph/scene/SceneJson.h"
+
+#include <csignal>
+#include <iostream>
+#include <memory>
 
 namespace cascade::cli {
 
+namespace {
+volatile std::sig_atomic_t gStopRequested = 0;
+extern "C" void requestStop(int) { gStopRequested = 1; }
+} // namespace
+
+void installStopHandlers() {
+  std::signal(SIGINT, requestStop);
+  std::signal(SIGTERM, requestStop);
+}
+
+const volatile std::sig_atomic_t* stopFlag() { return &gStopRequested; }
+
+std::filesystem::path defaultOutDir(const scene::Scene& scene, const std::string& given) {
+  return given.empty() ? std::filesystem::path("out") / scene.name : std::filesystem::path(given);
+}
+
+scene::BakeResult runBake(const scene::Scene& scene, const std::filesystem::path& outDir,
+                          const std::string& framesText, bool restart) {
+  scene::BakeOptions options;
+  options.outDir = outDir;
+  if (!framesText.empty()) options.frames = parseFrameRange(framesText);
+  options.resume = !restart;
+  options.log = &std::cerr;
+  options.stopFlag = stopFlag();
+  installStopHandlers();
+  scene::BakeResult result = scene::bakeScene(scene, options);
+  if (result.interrupted)
+    throw std::runtime_error("bake interrupted after frame " + std::to_string(result.lastFrame) +
+                             "; run the same command again to continue");
+  return result;
+}
+
 void addBakeCommand(CLI::App& app) {
-  CLI::App* command = app.add_subcommand("bake", "bake (not implemented yet: issue #4)");
-  command->allow_extras();
-  command->callback([] { throw NotImplementedError("bake: not implemented yet (issue #4)"); });
+  CLI::App* command = app.add_subcommand("bake", "simulate a scene into OUT/particles (resumable)");
+  struct Args {
+    std::string scene, out, frames;
+    std::vector<std::string> sets;
+    bool restart = false;
+  };
+  auto args = std::make_shared<Args>();
+  command->add_option("scene", args->scene, "scene file (JSON)")->required();
+  command->add_option("-o,--out", args->out, "output folder (default out/<scene name>)");
+  command->add_option("--frames", args->frames, "frames A-B to write (1-based, inclusive)");
+  command->add_option("--set", args->sets, "override a scene value: KEY=VALUE (dotted path)")->take_all();
+  command->add_flag("--restart", args->restart, "ignore a checkpoint and bake from the start");
+  command->callback([args] {
+    const scene::Scene scene = scene::loadScene(args->scene, args->sets);
+    runBake(scene, defaultOutDir(scene, args->out), args->frames, args->restart);
+  });
 }
 
 } // namespace cascade::cli

@@ -1,13 +1,149 @@
+// `cascade run SCENE.json [-o OUT] [--set KEY=VALUE]...` (CONTRACT.md, issue 4):
+// bake, surface, render; a stage whose inputs did not change is skipped.
+//
+// Input hashes (kept in OUT/manifest.json): the bake's is the hash of the
+// resolved scene and its mesh files (Manifest.h); surfacing and rendering
+// depend only on the particles the bake made (a function of that hash) and
+// on the scene's camera and lights (part of it), so theirs derive from it.
+// The surface and render stages run as `cascade surface OUT` and
+// `cascade render OUT` child processes (stages talk through files only);
+// when a stage's input changed, its old outputs are removed first so that no
+// stale frame survives.
 #include "Commands.h"
+#include "SceneCommand.h"
 
 #include "libsph/Errors.h"
+#include "libsph/io/OutputLayout.h"
+#include "libsph/scene/Manifest.h"
+#include "libsph/scene/SceneJson.h"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
 
 namespace cascade::cli {
 
+namespace fs = std::filesystem;
+
+namespace {
+
+/// Runs this program with `arguments`; returns its exit status (128 + signal if killed).
+int runSelf(const std::vector<std::string>& arguments) {
+  std::vector<char*> argv;
+  std::string self = "/proc/self/exe";
+  std::string name = "cascade";
+  argv.push_back(name.data());
+  std::vector<std::string> copy = arguments;
+  for (std::string& argument : copy) argv.push_back(argument.data());
+  argv.push_back(nullptr);
+  std::cout.flush();
+  std::cerr.flush();
+  const pid_t child = ::fork();
+  if (child < 0) throw std::runtime_error("run: cannot start a stage (fork failed)");
+  if (child == 0) {
+    ::execv(self.c_str(), argv.data());
+    std::_Exit(127);
+  }
+  int status = 0;
+  while (::waitpid(child, &status, 0) < 0) {
+    if (errno != EINTR) throw std::runtime_error("run: lost a stage process");
+  }
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
+  return 1;
+}
+
+bool allFramesExist(const fs::path& dir, const std::string& prefix, const std::string& extension, int count) {
+  const std::vector<int> frames = listFrames(dir, prefix, extension);
+  int found = 0;
+  for (int f : frames) found += (f >= 1 && f <= count);
+  return found == count;
+}
+
+void removeOutputs(const fs::path& dir, const std::string& prefix, const std::string& extension) {
+  std::error_code error;
+  for (int f : listFrames(dir, prefix, extension)) {
+    const fs::path file = dir / (prefix + "." + OutputLayout::pad(f) + "." + extension);
+    fs::remove(file, error);
+  }
+}
+
+double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+/// Runs `cascade STAGE OUT` unless the manifest says it is current; records it.
+void runStage(const std::string& stage, const fs::path& outDir, const std::string& sceneName,
+              const std::string& inputHash, int frameCount, const fs::path& outputDir,
+              const std::string& prefix, const std::string& extension) {
+  const OutputLayout layout(outDir);
+  const nlohmann::json manifest = scene::readManifest(layout.manifest());
+  if (scene::stageIsCurrent(manifest, stage, inputHash) &&
+      allFramesExist(outputDir, prefix, extension, frameCount)) {
+    std::cerr << "run: " << stage << ": inputs unchanged, skipped\n";
+    return;
+  }
+  removeOutputs(outputDir, prefix, extension);
+  if (stage == "surface") removeOutputs(layout.surfaceDir(), "surface", "vdb");
+  std::cerr << "run: " << stage << "...\n";
+  const auto start = std::chrono::steady_clock::now();
+  const int status = runSelf({stage, outDir.string()});
+  nlohmann::json record{{"done", status == 0}, {"input_hash", inputHash}, {"seconds", secondsSince(start)},
+                        {"frames", listFrames(outputDir, prefix, extension).size()}};
+  if (status != 0) record["exit_status"] = status;
+  scene::recordStage(layout.manifest(), sceneName, stage, record);
+  if (status == kExitBadInput) throw InputError("run: " + stage + " stage failed on bad input (see above)");
+  if (status == kExitUnstable) throw InstabilityError("run: " + stage + " stage: unstable (see above)");
+  if (status != 0) throw std::runtime_error(stage + " stage failed with exit status " + std::to_string(status));
+}
+
+} // namespace
+
 void addRunCommand(CLI::App& app) {
-  CLI::App* command = app.add_subcommand("run", "run (not implemented yet: issue #4)");
-  command->allow_extras();
-  command->callback([] { throw NotImplementedError("run: not implemented yet (issue #4)"); });
+  CLI::App* command = app.add_subcommand("run", "bake, surface and render a scene, skipping stages whose inputs did not change");
+  struct Args {
+    std::string scene, out;
+    std::vector<std::string> sets;
+    bool noRender = false, noSurface = false;
+  };
+  auto args = std::make_shared<Args>();
+  command->add_option("scene", args->scene, "scene file (JSON)")->required();
+  command->add_option("-o,--out", args->out, "output folder (default out/<scene name>)");
+  command->add_option("--set", args->sets, "override a scene value: KEY=VALUE (dotted path)")->take_all();
+  command->add_flag("--no-surface", args->noSurface, "stop after the bake");
+  command->add_flag("--no-render", args->noRender, "stop after surfacing");
+  command->callback([args] {
+    const auto start = std::chrono::steady_clock::now();
+    const scene::Scene scene = scene::loadScene(args->scene, args->sets);
+    const fs::path outDir = defaultOutDir(scene, args->out);
+    const OutputLayout layout(outDir);
+    const int frameCount = scene.output.frameCount();
+    const std::string bakeHash = scene::sceneInputHash(scene);
+
+    const nlohmann::json manifest = scene::readManifest(layout.manifest());
+    if (scene::stageIsCurrent(manifest, "bake", bakeHash) &&
+        allFramesExist(layout.particlesDir(), "particles", "vdb", frameCount)) {
+      std::cerr << "run: bake: scene unchanged (input hash " << bakeHash << "), skipped\n";
+    } else {
+      std::cerr << "run: bake " << scene.name << " -> " << outDir.string() << "\n";
+      runBake(scene, outDir, "", false);
+    }
+    if (!args->noSurface) {
+      const std::string surfaceHash = scene::hexHash(scene::fnv1a("surface", 7, std::stoull(bakeHash, nullptr, 16)));
+      runStage("surface", outDir, scene.name, surfaceHash, frameCount, layout.meshDir(), "fluid", "obj");
+      if (!args->noRender) {
+        const std::string renderHash = scene::hexHash(scene::fnv1a("render", 6, std::stoull(bakeHash, nullptr, 16)));
+        runStage("render", outDir, scene.name, renderHash, frameCount, layout.renderDir(), "frame", "png");
+      }
+    }
+    std::fprintf(stderr, "run: %s done in %.1f s -> %s\n", scene.name.c_str(), secondsSince(start),
+                 outDir.string().c_str());
+  });
 }
 
 } // namespace cascade::cli
