@@ -11,7 +11,10 @@
 //   grid-incremental      build() after every particle moved by up to 0.05
 //                         spacing (a time step), reusing the previous order;
 //   octree-bucket8        the octree with leaves of up to 8 particles (the
-//                         faithful "octree" splits to one particle per leaf).
+//                         faithful "octree" splits to one particle per leaf);
+//   *-variable-h          every particle with its own support radius, drawn in
+//                         [0.5, 1] x the radius (gather form; the grid's cells
+//                         stay sized for the largest).
 // Brute force runs up to 100k only, and is skipped (a row says so) when its
 // time estimated from 10k passes a minute.
 #include "Benchmarks.h"
@@ -103,8 +106,17 @@ BenchTable benchNeighbors() {
     const std::size_t n = points.size();
     const int repetitions = n <= 100000 ? 7 : 5;
 
+    // Variable smoothing length (SEED 2.1): each particle's support radius
+    // drawn in [0.5, 1] x radius; the grid is built with the largest.
+    std::vector<Real> radii(n);
+    {
+      std::mt19937 rng(3);
+      std::uniform_real_distribution<Real> factor(Real(0.5), Real(1));
+      for (auto& r : radii) r = factor(rng) * radius;
+    }
+
     // Full build + query, best of `repetitions`.
-    auto measure = [&](NeighborSearch& search, int reps) {
+    auto measure = [&](NeighborSearch& search, int reps, const Real* queryRadii = nullptr) {
       Timing t;
       NeighborLists lists;
       for (int r = 0; r < reps; ++r) {
@@ -115,7 +127,7 @@ BenchTable benchNeighbors() {
         t.buildCpuMs = std::min(t.buildCpuMs, processCpuMs() - cpu);
         cpu = processCpuMs();
         start = std::chrono::steady_clock::now();
-        search.query(points.data(), n, nullptr, true, lists);
+        search.query(points.data(), n, queryRadii, true, lists);
         t.queryMs = std::min(t.queryMs, millisecondsSince(start));
         t.queryCpuMs = std::min(t.queryCpuMs, processCpuMs() - cpu);
       }
@@ -176,6 +188,15 @@ BenchTable benchNeighbors() {
     {
       search::OctreeSearch octree(8);
       addRow("octree-bucket8", n, measure(octree, repetitions));
+    }
+    {
+      search::UniformGridSearch grid;
+      grid.setIncrementalBuild(false);
+      addRow("grid-variable-h", n, measure(grid, repetitions, radii.data()));
+      search::OctreeSearch octree;
+      addRow("octree-variable-h", n, measure(octree, repetitions, radii.data()));
+      search::OctreeSearch bucket(8);
+      addRow("octree-bucket8-variable-h", n, measure(bucket, repetitions, radii.data()));
     }
   }
   return table;
