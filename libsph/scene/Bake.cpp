@@ -199,6 +199,10 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
       while (simulation.time() < frameTime) {
         double target = frameTime;
         if (hasProbes) target = std::min(target, double(state.probeSamples) * probeInterval);
+        // Exact resume: the incremental grid rebuild orders points within a
+        // cell by history that a checkpoint does not hold, so every step
+        // starts from a fresh search (a full rebuild, as after a restore).
+        simulation.resetNeighborSearch();
         if (simulation.time() + simulation.nextTimeStep() >= target) simulation.advanceTo(target);
         else simulation.step();
         emit();
@@ -220,8 +224,6 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
       state.frame = frame;
       state.wallSeconds = wallBefore + std::chrono::duration<double>(Clock::now() - wallStart).count();
       writeCheckpoint(checkpointFile, state, simulation);
-      // A resumed bake starts with a fresh neighbour search: so does this one.
-      simulation.resetNeighborSearch();
       result.lastFrame = frame;
     }
   } catch (const InstabilityError& error) {
