@@ -113,6 +113,23 @@ void writePng(const fs::path& path, const Image& image, bool withAlpha, const Pn
 
 namespace {
 
+// C++ work on behalf of readPngStream, kept out of the frame that holds the
+// setjmp (so nothing there can be clobbered by libpng's longjmp).
+[[gnu::noinline]] void collectText(png_structp png, png_infop info, PngText* text) {
+  png_textp chunks = nullptr;
+  int count = 0;
+  png_get_text(png, info, &chunks, &count);
+  for (int i = 0; i < count; ++i) (*text)[chunks[i].key] = std::string(chunks[i].text, chunks[i].text_length);
+}
+
+[[gnu::noinline]] void allocateImage(Image* image, png_uint_32 width, png_uint_32 height) {
+  *image = Image(int(width), int(height));
+}
+
+[[gnu::noinline]] void setMessage(PngErrorState& state, const char* message) {
+  if (state.message.empty()) state.message = message;
+}
+
 // Reads the header (and text chunks) and, if `image` is given, the pixels;
 // setjmp lives in this frame, which holds plain data only.
 bool readPngStream(std::FILE* file, Image* image, PngText* text, PngErrorState& state) {
@@ -120,24 +137,18 @@ bool readPngStream(std::FILE* file, Image* image, PngText* text, PngErrorState& 
   png_infop info = png ? png_create_info_struct(png) : nullptr;
   if (!png || !info) {
     png_destroy_read_struct(&png, &info, nullptr);
-    state.message = "libpng initialisation failed";
+    setMessage(state, "libpng initialisation failed");
     return false;
   }
   if (setjmp(png_jmpbuf(png))) {
     png_destroy_read_struct(&png, &info, nullptr);
-    if (state.message.empty()) state.message = "broken PNG";
+    setMessage(state, "broken PNG");
     return false;
   }
   png_init_io(png, file);
   png_set_sig_bytes(png, 8);
   png_read_info(png, info);
-  if (text) {
-    png_textp chunks = nullptr;
-    int count = 0;
-    png_get_text(png, info, &chunks, &count);
-    for (int i = 0; i < count; ++i)
-      (*text)[chunks[i].key] = std::string(chunks[i].text, chunks[i].text_length);
-  }
+  if (text) collectText(png, info, text);
   if (image) {
     const png_byte colorType = png_get_color_type(png, info);
     const png_byte bitDepth = png_get_bit_depth(png, info);
@@ -153,12 +164,10 @@ bool readPngStream(std::FILE* file, Image* image, PngText* text, PngErrorState& 
     const png_uint_32 height = png_get_image_height(png, info);
     if (png_get_rowbytes(png, info) != std::size_t(width) * 4 || width > 65536 || height > 65536) {
       png_destroy_read_struct(&png, &info, nullptr);
-      state.message = "unsupported PNG layout";
+      setMessage(state, "unsupported PNG layout");
       return false;
     }
-    image->width = int(width);
-    image->height = int(height);
-    image->rgba.assign(std::size_t(width) * height * 4, 0);
+    allocateImage(image, width, height);
     for (png_uint_32 y = 0; y < height; ++y) png_read_row(png, image->pixel(0, int(y)), nullptr);
     png_read_end(png, nullptr);
   }

@@ -10,6 +10,10 @@
 #include <iostream>
 #include <memory>
 
+// LeakSanitizer (CASCADE_SANITIZE builds): Mesa's OSMesa keeps a few small
+// per-context buffers until process exit; they are not ours to free.
+extern "C" const char* __lsan_default_suppressions() { return "leak:libOSMesa\nleak:libLLVM\n"; }
+
 namespace cascade::cli {
 
 void addRenderCommand(CLI::App& app) {
