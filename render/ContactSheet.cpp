@@ -73,7 +73,7 @@ Image makeContactSheet(const std::vector<ContactSheetTile>& tiles, int columns, 
     sheet.rgba[i] = sheet.rgba[i + 1] = sheet.rgba[i + 2] = 24;
     sheet.rgba[i + 3] = 255;
   }
-  const int scale = std::max(1, tileWidth / 160);
+  const int scale = tileWidth >= 120 ? std::max(2, tileWidth / 140) : 1;
   const std::uint8_t white[3] = {255, 255, 255};
   for (int t = 0; t < count; ++t) {
     const int x0 = gap + (t % columns) * (tileWidth + gap), y0 = gap + (t / columns) * (tileHeight + gap);
