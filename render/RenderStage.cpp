@@ -389,6 +389,11 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
   Box3f stage;
   if (hasSolids && !solids.empty()) stage = meshBounds(solids);
   else if (scene.tank) stage = *scene.tank;
+  if (scene.domain && !stage.isEmpty()) {  // very large planes: keep the stage to the domain
+    const Eigen::Vector3f pad = 0.1f * scene.domain->sizes();
+    const Box3f clipped = stage.intersection(Box3f(scene.domain->min() - pad, scene.domain->max() + pad));
+    if (!clipped.isEmpty()) stage = clipped;
+  }
   Box3f framing = stage;
   if (stage.isEmpty() || !scene.camera) {
     for (const FrameInput* input : {&frames.front(), &frames.back()}) {
