@@ -191,8 +191,7 @@ void UniformGridSearch::sortPoints(const Vec3r* points, std::size_t count, bool 
       mLastMoved = movedCount;
       if (useIdentity) std::iota(mOrder.begin(), mOrder.end(), 0u);
       // Points whose cell is unchanged keep their (sorted) places; the moved
-      // ones are sorted on their own and merged in after the kept points of
-      // their cell.
+      // ones are sorted on their own and merged in.
       std::vector<std::uint64_t> movedKeys;
       std::vector<std::uint32_t> movedIndex;
       movedKeys.reserve(movedCount);
@@ -216,10 +215,20 @@ void UniformGridSearch::sortPoints(const Vec3r* points, std::size_t count, bool 
       std::vector<std::uint64_t> keyScratch;
       std::vector<std::uint32_t> indexScratch;
       radixSortPairs(movedKeys, movedIndex, keyBits, keyScratch, indexScratch);
-      std::size_t a = 0, b = 0, k = 0;
+      // Canonical order, as a full rebuild gives it: by cell, then by point
+      // index (kept points already are; the moved ones of one cell may come
+      // from several old cells). The order, and so the neighbour lists, then
+      // depend only on the current positions, not on the build history.
       const std::size_t moves = movedKeys.size();
+      for (std::size_t first = 0; first < moves;) {
+        std::size_t last = first + 1;
+        while (last < moves && movedKeys[last] == movedKeys[first]) ++last;
+        if (last - first > 1) std::sort(movedIndex.begin() + first, movedIndex.begin() + last);
+        first = last;
+      }
+      std::size_t a = 0, b = 0, k = 0;
       while (a < kept && b < moves) {
-        if (movedKeys[b] < keptKeys[a]) {
+        if (movedKeys[b] < keptKeys[a] || (movedKeys[b] == keptKeys[a] && movedIndex[b] < keptIndex[a])) {
           mKeys[k] = movedKeys[b];
           mOrder[k++] = movedIndex[b++];
         } else {

@@ -11,8 +11,10 @@
 /// in memory. A hash table maps occupied cells to their range of points.
 /// When the points moved little since the last build, only the points whose
 /// cell changed are sorted again and merged into the kept order (incremental
-/// rebuild); cells and neighbour sets are those of a full rebuild (only the
-/// order of the points within a cell may differ).
+/// rebuild). Either way the order is canonical (by cell along the curve, then
+/// by point index), so the neighbour lists, their order included, depend only
+/// on the current points: an incremental rebuild gives bit for bit the lists
+/// of a full one (a resumed simulation stays bit-identical).
 ///
 /// query() walks the queries cell by cell: the 27 cells around a query's cell
 /// are looked up once per cell, then every point of them is tested with
