@@ -5,7 +5,7 @@
 ///
 /// Passes per still (all in linear light, RGBA16F, multisampled):
 ///  1. shadow map of the key light (solids, fluid and particles as casters),
-///     sampled with 3x3 percentage-closer filtering (Reeves et al. 1987);
+///     sampled with bilinear percentage-closer filtering (Reeves et al. 1987);
 ///  2. opaque pass: procedural sky (zenith/horizon gradient with a sun), a
 ///     ground plane fading into the horizon haze, the solids lit by the
 ///     lights plus a sky/ground hemisphere ambient, particles as ray-cast
