@@ -3,6 +3,7 @@
 #include "libsph/Errors.h"
 #include "libsph/io/AtomicFile.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cstdio>
 #include <cstdlib>
@@ -86,7 +87,9 @@ void putVector(BufferedWriter& out, const char* tag, const Eigen::Vector3f& v) {
 
 } // namespace
 
-void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh) {
+void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh) { writeObj(path, mesh, std::string()); }
+
+void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const std::string& comment) {
   writeFileAtomically(path, [&](const std::filesystem::path& temp) {
     std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(temp.c_str(), "wb"), &std::fclose);
     if (!file) throw std::runtime_error(path.string() + ": cannot write");
@@ -96,6 +99,13 @@ void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh) {
     out.put(" vertices, ");
     out.putIndex(mesh.triangles.size());
     out.put(" triangles\n");
+    for (std::size_t begin = 0; begin < comment.size();) {
+      const std::size_t end = std::min(comment.find('\n', begin), comment.size());
+      out.put("# ");
+      out.put(std::string_view(comment).substr(begin, end - begin));
+      out.put("\n");
+      begin = end + 1;
+    }
     for (const auto& v : mesh.vertices) putVector(out, "v", v);
     const bool withNormals = mesh.normals.size() == mesh.vertices.size() && !mesh.normals.empty();
     if (withNormals)

@@ -37,6 +37,8 @@ struct TriangleMesh {
 
 /// Writes OBJ ("v", "vn", "g", "f a//a b//b c//c"), atomically.
 void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh);
+/// The same with extra comment lines after the first ("# up: y"; one per '\n'-separated line).
+void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const std::string& comment);
 
 /// Reads OBJ written by writeObj or another tool (v, vn, g/o, f with any of
 /// the index forms, polygons fanned into triangles, negative indices).

@@ -1,0 +1,99 @@
+#include "surfacing/AnisotropicKernels.h"
+
+#include <Eigen/Eigenvalues>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace cascade::surfacing {
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kKernelNormalization = 315.0 / (64.0 * kPi);  // of (1 - q^2)^3 on the unit ball
+} // namespace
+
+AnisotropicKernels computeAnisotropicKernels(const ParticleGrid& grid,
+                                             const AnisotropicKernelSettings& settings) {
+  const std::size_t n = grid.sortedPosition().size();
+  const double s = settings.spacing;
+  const double neighborRadius = settings.neighborRadius * s;
+  const double support = settings.supportRadius * s;
+  const double volume = s * s * s;
+  // A full lattice neighbourhood within 2.1 spacings has 32 neighbours.
+  const double fullCount = 4.0 / 3.0 * kPi * std::pow(settings.neighborRadius, 3) * 0.82;
+
+  AnisotropicKernels kernels;
+  kernels.center.resize(n);
+  kernels.transform.resize(n);
+  kernels.weight.resize(n);
+  kernels.halfExtent.resize(n);
+  kernels.interior.resize(n);
+
+  const std::vector<Vec3r>& position = grid.sortedPosition();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.cellCount(), 16), [&](const auto& cells) {
+    std::vector<std::uint32_t> near;
+    for (std::size_t cell = cells.begin(); cell != cells.end(); ++cell) {
+      // Candidates from the 27 cells around this one, once for all its particles.
+      near.clear();
+      grid.forEachInNeighborCells(grid.cellCoord(cell), [&](std::uint32_t k) { near.push_back(k); });
+      const auto [begin, end] = grid.cellRange(cell);
+      for (std::uint32_t i = begin; i < end; ++i) {
+        const Eigen::Vector3d xi = position[i].cast<double>();
+        double weightSum = 0;
+        Eigen::Vector3d weightedSum = Eigen::Vector3d::Zero();
+        Eigen::Matrix3d secondMoment = Eigen::Matrix3d::Zero();
+        int count = 0;
+        for (std::uint32_t j : near) {
+          if (j == i) continue;
+          const Eigen::Vector3d offset = position[j].cast<double>() - xi;
+          const double r2 = offset.squaredNorm();
+          if (r2 >= neighborRadius * neighborRadius) continue;
+          const double q = std::sqrt(r2) / neighborRadius;
+          const double w = 1 - q * q * q;  // Yu & Turk eq. 11
+          ++count;
+          weightSum += w;
+          weightedSum += w * offset;
+          secondMoment += w * offset * offset.transpose();
+        }
+        Eigen::Matrix3d G = Eigen::Matrix3d::Identity() / support;
+        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+        if (count >= settings.minNeighbors) {
+          mean = weightedSum / weightSum;  // offset of the weighted mean, eq. 6 / 9
+          const Eigen::Matrix3d covariance = secondMoment / weightSum - mean * mean.transpose();  // eq. 10
+          Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
+          eigen.computeDirect(covariance);  // closed form for 3x3
+          Eigen::Vector3d sigma = eigen.eigenvalues().cwiseMax(0.0);  // ascending
+          const double largest = sigma(2);
+          if (largest > 0) {
+            for (int k = 0; k < 3; ++k) sigma(k) = std::max(sigma(k), largest / settings.maxAnisotropy);
+            Eigen::Vector3d stretch = sigma / std::cbrt(sigma.prod());  // unit determinant
+            stretch = stretch.cwiseMin(settings.maxStretch);
+            const Eigen::Matrix3d& axes = eigen.eigenvectors();
+            G = axes * stretch.cwiseInverse().asDiagonal() * axes.transpose() / support;
+          }
+        } else {
+          G = Eigen::Matrix3d::Identity() / (support * settings.isolatedScale);  // k_n
+        }
+        if (count > 0 && count < settings.minNeighbors) mean = weightedSum / weightSum;
+        const Eigen::Vector3d center = xi + settings.centerSmoothing * mean;  // eq. 6
+        // Support ellipsoid {d : |G d| < 1}: its AABB half size along axis k is |row k of G^-1|.
+        const Eigen::Matrix3d inverse = G.inverse();
+        Eigen::Vector3d half;
+        for (int k = 0; k < 3; ++k) half(k) = inverse.row(k).norm();
+        kernels.center[i] = center.cast<Real>();
+        kernels.transform[i] = G.cast<float>();
+        kernels.weight[i] = float(volume * G.determinant() * kKernelNormalization);
+        kernels.halfExtent[i] = half.cast<float>();
+        kernels.interior[i] =
+            count >= fullCount && mean.norm() < 0.1 * s ? std::uint8_t(1) : std::uint8_t(0);
+      }
+    }
+  });
+  float maxHalf = 0;
+  for (const Eigen::Vector3f& half : kernels.halfExtent) maxHalf = std::max(maxHalf, half.maxCoeff());
+  kernels.maxHalfExtent = maxHalf;
+  return kernels;
+}
+
+} // namespace cascade::surfacing

@@ -1,0 +1,42 @@
+/// @file MeshCleanup.h
+/// @brief Clean-up of an extracted iso-surface mesh:
+///   1. drop degenerate triangles (repeated vertices or zero area);
+///   2. split into vertex-connected components (union-find) and drop those whose
+///      enclosed volume |V| (divergence theorem, V = sum a.(b x c) / 6) is below
+///      a threshold (spray specks, tiny bubbles);
+///   3. orient outward: the extractor's orientation is consistent, so the whole
+///      mesh is flipped if its total signed volume is negative (cavities keep
+///      their inward-facing normals, which point out of the fluid);
+///   4. optionally CGAL: isotropic remeshing (PMP::isotropic_remeshing, Botsch &
+///      Kobbelt 2004) to a target edge length, and/or decimation by edge collapse
+///      (Surface_mesh_simplification, Lindstrom-Turk 1998) to a triangle budget;
+///   5. drop unreferenced vertices and compute area-weighted vertex normals.
+/// Steps 1-3 and 5 run on the indexed mesh directly (CGAL's Surface_mesh
+/// construction alone would cost more than the whole surfacing of a frame);
+/// CGAL is used where it does the geometry work (4). CGAL stays in MeshCleanup.cpp.
+#pragma once
+
+#include "libsph/io/TriangleMesh.h"
+
+#include <cstddef>
+
+namespace cascade::surfacing {
+
+struct MeshCleanupSettings {
+  double minComponentVolume = 0;  ///< m^3
+  std::size_t triangleBudget = 0; ///< 0: no decimation
+  double remeshEdgeLength = 0;    ///< 0: no remeshing
+};
+
+struct MeshCleanupStats {
+  std::size_t degenerateTriangles = 0, droppedComponents = 0, components = 0;
+  bool flipped = false;
+};
+
+/// Cleans `mesh` in place; on return it has outward normals.
+MeshCleanupStats cleanupMesh(TriangleMesh& mesh, const MeshCleanupSettings& settings);
+
+/// Signed volume enclosed by a closed, consistently oriented mesh (m^3).
+double meshVolume(const TriangleMesh& mesh);
+
+} // namespace cascade::surfacing

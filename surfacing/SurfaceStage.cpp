@@ -1,0 +1,237 @@
+#include "surfacing/SurfaceStage.h"
+
+#include "libsph/Errors.h"
+#include "libsph/io/AtomicFile.h"
+#include "libsph/io/ParticleCache.h"
+#include "surfacing/LevelSetFiltering.h"
+#include "surfacing/LevelSetMesher.h"
+#include "surfacing/LevelSetMethods.h"
+#include "surfacing/MeshCleanup.h"
+#include "surfacing/ParticleGrid.h"
+
+#include <openvdb/io/File.h>
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/LevelSetUtil.h>
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <set>
+#include <sstream>
+
+namespace cascade {
+
+namespace fs = std::filesystem;
+
+SurfaceMethod parseSurfaceMethod(const std::string& name) {
+  if (name == "union") return SurfaceMethod::UnionOfSpheres;
+  if (name == "smooth") return SurfaceMethod::SmoothSpheres;
+  if (name == "anisotropic") return SurfaceMethod::AnisotropicKernels;
+  throw InputError("--method: unknown surfacing method '" + name + "' (union, smooth, anisotropic)");
+}
+
+std::string surfaceMethodName(SurfaceMethod method) {
+  switch (method) {
+    case SurfaceMethod::UnionOfSpheres: return "union";
+    case SurfaceMethod::SmoothSpheres: return "smooth";
+    case SurfaceMethod::AnisotropicKernels: return "anisotropic";
+  }
+  return "?";
+}
+
+SurfaceFilter parseSurfaceFilter(const std::string& name) {
+  if (name == "none") return SurfaceFilter::None;
+  if (name == "mean-curvature") return SurfaceFilter::MeanCurvature;
+  if (name == "gaussian") return SurfaceFilter::Gaussian;
+  if (name == "laplacian") return SurfaceFilter::Laplacian;
+  throw InputError("--filter: unknown level-set filter '" + name + "' (none, mean-curvature, gaussian, laplacian)");
+}
+
+std::string surfaceFilterName(SurfaceFilter filter) {
+  switch (filter) {
+    case SurfaceFilter::None: return "none";
+    case SurfaceFilter::MeanCurvature: return "mean-curvature";
+    case SurfaceFilter::Gaussian: return "gaussian";
+    case SurfaceFilter::Laplacian: return "laplacian";
+  }
+  return "?";
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+void initializeOpenVdb() {
+  static std::once_flag once;
+  std::call_once(once, [] { openvdb::initialize(); });
+}
+
+/// Scene z-up (x, y, z) -> y-up (x, z, -y): what y-up importers turn back into z-up.
+TriangleMesh toYUp(const TriangleMesh& mesh) {
+  TriangleMesh out = mesh;
+  for (auto& v : out.vertices) v = Eigen::Vector3f(v.x(), v.z(), -v.y());
+  for (auto& n : out.normals) n = Eigen::Vector3f(n.x(), n.z(), -n.y());
+  return out;
+}
+
+void writeSurfaceVdb(const fs::path& path, const openvdb::FloatGrid& levelSet, bool withDensity,
+                     const SurfaceOptions& options, double spacing, bool yUp) {
+  openvdb::GridPtrVec grids;
+  auto surface = levelSet.deepCopy();
+  surface->setName("surface");
+  surface->setGridClass(openvdb::GRID_LEVEL_SET);
+  if (yUp) {  // rotate the lattice: world (x, y, z) -> (x, z, -y)
+    openvdb::math::Mat4d rotation = openvdb::math::Mat4d::identity();
+    rotation.setToRotation(openvdb::math::X_AXIS, -M_PI / 2);
+    surface->transform().postMult(rotation);
+  }
+  surface->insertMeta("cascade_method", openvdb::StringMetadata(surfaceMethodName(options.method)));
+  surface->insertMeta("cascade_spacing", openvdb::FloatMetadata(float(spacing)));
+  surface->insertMeta("cascade_up_axis", openvdb::StringMetadata(yUp ? "y" : "z"));
+  grids.push_back(surface);
+  if (withDensity) {
+    auto density = surface->deepCopy();
+    openvdb::tools::sdfToFogVolume(*density);
+    density->setName("density");
+    density->setGridClass(openvdb::GRID_FOG_VOLUME);
+    grids.push_back(density);
+  }
+  writeFileAtomically(path, [&](const fs::path& temp) {
+    openvdb::io::File file(temp.string());
+    file.write(grids);
+    file.close();
+  });
+}
+
+} // namespace
+
+SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spacing,
+                               const SurfaceOptions& options, const fs::path& vdbPath) {
+  initializeOpenVdb();
+  SurfaceResult result;
+  if (options.particleSpacing > 0) spacing = options.particleSpacing;
+  if (!(spacing > 0)) spacing = surfacing::estimateParticleSpacing(positions);
+  if (!(spacing > 0)) spacing = options.voxelSize > 0 ? 2 * options.voxelSize : 0;
+  const double voxelSize = options.voxelSize > 0 ? options.voxelSize : 0.5 * spacing;
+  result.voxelSize = voxelSize;
+  result.particleSpacing = spacing;
+
+  surfacing::LevelSetSettings settings;
+  settings.voxelSize = voxelSize;
+  settings.spacing = spacing;
+  settings.radius = options.particleRadius;
+  settings.halfWidth = std::max(2, options.halfWidth);
+
+  auto start = Clock::now();
+  openvdb::FloatGrid::Ptr levelSet;
+  if (positions.empty() || !(voxelSize > 0)) {
+    levelSet = openvdb::createLevelSet<openvdb::FloatGrid>(voxelSize > 0 ? voxelSize : 1.0, settings.halfWidth);
+  } else {
+    switch (options.method) {
+      case SurfaceMethod::UnionOfSpheres: levelSet = surfacing::unionOfSpheresLevelSet(positions, settings); break;
+      case SurfaceMethod::SmoothSpheres: levelSet = surfacing::smoothSpheresLevelSet(positions, settings); break;
+      case SurfaceMethod::AnisotropicKernels: levelSet = surfacing::anisotropicLevelSet(positions, settings); break;
+    }
+  }
+  levelSet->setName("surface");
+  result.timings.rasterize = secondsSince(start);
+
+  start = Clock::now();
+  if (!positions.empty()) surfacing::filterLevelSet(*levelSet, options.filter, options.smoothingPasses);
+  result.activeVoxels = levelSet->activeVoxelCount();
+  result.timings.filter = secondsSince(start);
+
+  start = Clock::now();
+  result.mesh = surfacing::levelSetToMesh(*levelSet, std::clamp(options.adaptivity, 0.0, 1.0));
+  result.timings.mesh = secondsSince(start);
+
+  start = Clock::now();
+  surfacing::MeshCleanupSettings cleanup;
+  cleanup.minComponentVolume =
+      options.minComponentVolume >= 0 ? options.minComponentVolume : spacing * spacing * spacing / 8;
+  cleanup.triangleBudget = options.triangleBudget;
+  cleanup.remeshEdgeLength = options.remeshEdgeLength;
+  surfacing::cleanupMesh(result.mesh, cleanup);
+  result.timings.cleanup = secondsSince(start);
+
+  if (!vdbPath.empty()) {
+    start = Clock::now();
+    writeSurfaceVdb(vdbPath, *levelSet, options.writeDensity, options, spacing, options.vdbYUp);
+    result.timings.write += secondsSince(start);
+  }
+  return result;
+}
+
+void writeSurfaceObj(const fs::path& path, const TriangleMesh& mesh, bool yUp) {
+  // "# up: y|z" tells Cascade's render (and people) the file's axes.
+  if (yUp) writeObj(path, toYUp(mesh), "up: y (a scene point x, y, z is stored as x, z, -y)");
+  else writeObj(path, mesh, "up: z (scene coordinates)");
+}
+
+std::vector<SurfaceFrameReport> surfaceFrames(const OutputLayout& layout, const FrameRange& range,
+                                              const SurfaceOptions& options,
+                                              const std::function<void(const SurfaceFrameReport&)>& progress) {
+  initializeOpenVdb();
+  // Frames to do: every number in A-B when both are given, else those on disk within the range.
+  std::set<int> onDisk;
+  for (const char* extension : {"vdb", "ply"})
+    for (int frame : listFrames(layout.particlesDir(), "particles", extension)) onDisk.insert(frame);
+  std::vector<int> frames;
+  if (range.first && range.last) {
+    for (int frame = *range.first; frame <= *range.last; ++frame) frames.push_back(frame);
+  } else {
+    for (int frame : onDisk)
+      if (range.contains(frame)) frames.push_back(frame);
+    if (frames.empty())
+      throw InputError(layout.particlesDir().string() +
+                       ": no particle caches (particles.NNNN.vdb or .ply) in the frame range");
+  }
+  if (!options.writeVdb && !options.writeObj)
+    throw InputError("surface: nothing to write (both the VDB and the OBJ output are off)");
+
+  std::vector<SurfaceFrameReport> reports(frames.size());
+  std::mutex progressMutex;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, frames.size(), 1), [&](const auto& indices) {
+    for (std::size_t index = indices.begin(); index != indices.end(); ++index) {
+      SurfaceFrameReport& report = reports[index];
+      const int frame = report.frame = frames[index];
+      const fs::path vdbOut = layout.surface(frame), objOut = layout.mesh(frame);
+      const bool done = (!options.writeVdb || fs::exists(vdbOut)) && (!options.writeObj || fs::exists(objOut));
+      try {
+        if (done && !options.force) {
+          report.skipped = true;
+        } else {
+          fs::path input = layout.particles(frame);
+          if (!fs::exists(input) && fs::exists(layout.particlesPly(frame))) input = layout.particlesPly(frame);
+          const ParticleFrame particles = readParticleFrame(input);  // InputError names the file
+          report.particles = particles.size();
+          SurfaceResult result = surfaceParticles(particles.position, particles.spacing, options,
+                                                  options.writeVdb ? vdbOut : fs::path());
+          report.timings = result.timings;
+          report.triangles = result.mesh.triangles.size();
+          if (options.writeObj) {
+            const auto start = Clock::now();
+            writeSurfaceObj(objOut, result.mesh, options.objYUp);
+            report.timings.write += secondsSince(start);
+          }
+        }
+      } catch (const InputError& error) {
+        report.error = error.what();
+        report.badInput = true;
+      } catch (const std::exception& error) {
+        report.error = "frame " + std::to_string(frame) + ": " + error.what();
+      }
+      if (progress) {
+        std::lock_guard<std::mutex> lock(progressMutex);
+        progress(report);
+      }
+    }
+  });
+  return reports;
+}
+
+} // namespace cascade

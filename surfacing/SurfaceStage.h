@@ -1,0 +1,138 @@
+/// @file SurfaceStage.h
+/// @brief The surfacing stage: particle caches to OpenVDB narrow-band level sets
+///        and triangle meshes (issue 5; CONTRACT.md layout).
+///
+/// For every frame of a range, OUT/particles/particles.NNNN.vdb (or .ply) is
+/// turned into OUT/surface/surface.NNNN.vdb (a level set grid named "surface",
+/// class GRID_LEVEL_SET, voxel size in its transform, optionally a "density"
+/// fog grid) and OUT/mesh/fluid.NNNN.obj (triangles with outward per-vertex
+/// normals). Pipeline per frame:
+///   1. rasterize the particles into a narrow-band level set with one of the
+///      methods below (surfacing/LevelSetMethods.h says what each computes);
+///   2. filter the level set (mean curvature, Gaussian or Laplacian passes,
+///      OpenVDB LevelSetFilter);
+///   3. mesh it (OpenVDB volumeToMesh with adaptivity);
+///   4. clean the mesh (surfacing/MeshCleanup.h: degenerate faces, small
+///      components, outward orientation, optional CGAL remeshing or
+///      decimation to a triangle budget, normals).
+/// The voxel lattice is world aligned (voxel centres at integer multiples of
+/// the voxel size), so consecutive frames do not shimmer. Frames are
+/// independent and run in parallel (TBB), each parallel inside; the output
+/// depends only on the input and the options.
+///
+/// Axes: files are written in the scene's own z-up world coordinates (the
+/// VDB's transform and the OBJ's vertices are the scene's metres); see
+/// `SurfaceOptions::objYUp` for OBJ files meant for y-up importers.
+///
+/// This header has no OpenVDB or CGAL includes, so any stage can call it.
+#pragma once
+
+#include "libsph/Types.h"
+#include "libsph/io/OutputLayout.h"
+#include "libsph/io/TriangleMesh.h"
+
+#include <cstddef>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace cascade {
+
+/// How particles become a level set.
+enum class SurfaceMethod {
+  UnionOfSpheres,      ///< OpenVDB ParticlesToLevelSet: union of spheres
+  SmoothSpheres,       ///< Zhu & Bridson 2005: distance to the weighted mean of neighbours
+  AnisotropicKernels,  ///< Yu & Turk 2013: density of anisotropic kernels (default)
+};
+
+/// Level-set filter applied `smoothingPasses` times.
+enum class SurfaceFilter { None, MeanCurvature, Gaussian, Laplacian };
+
+/// "union", "smooth", "anisotropic" <-> SurfaceMethod; throws InputError on an unknown name.
+SurfaceMethod parseSurfaceMethod(const std::string& name);
+std::string surfaceMethodName(SurfaceMethod method);
+/// "none", "mean-curvature", "gaussian", "laplacian" <-> SurfaceFilter.
+SurfaceFilter parseSurfaceFilter(const std::string& name);
+std::string surfaceFilterName(SurfaceFilter filter);
+
+struct SurfaceOptions {
+  /// Voxel edge (m). 0: half the particle spacing (ParticleFrame::spacing, else
+  /// the median nearest-neighbour distance of the frame).
+  double voxelSize = 0;
+  /// Particle spacing (m) to use when > 0, overriding the cache's.
+  double particleSpacing = 0;
+  /// Particle radius (m). 0: the method's default, a multiple of the spacing
+  /// chosen so that a flat lattice of particles keeps its volume (union of
+  /// spheres: 1.0 spacing, as vdb_tool's radius=2 voxels; smooth spheres:
+  /// calibrated; anisotropic: the iso-value is calibrated instead).
+  double particleRadius = 0;
+  SurfaceMethod method = SurfaceMethod::AnisotropicKernels;
+  SurfaceFilter filter = SurfaceFilter::MeanCurvature;
+  int smoothingPasses = 1;
+  /// volumeToMesh adaptivity in [0, 1]: 0 uniform, 1 fully adaptive.
+  double adaptivity = 0;
+  /// If > 0, decimate (CGAL edge collapse) meshes with more triangles than this.
+  std::size_t triangleBudget = 0;
+  /// If > 0, isotropic remeshing (CGAL) to this target edge length (m).
+  double remeshEdgeLength = 0;
+  /// Drop mesh components whose enclosed volume is below this (m^3).
+  /// < 0: the volume of one particle (spacing^3) / 8.
+  double minComponentVolume = -1;
+  /// Narrow-band half width, voxels.
+  int halfWidth = 3;
+  bool writeVdb = true;      ///< OUT/surface/surface.NNNN.vdb ("surface" grid)
+  bool writeDensity = false; ///< also a "density" fog grid in that file
+  bool writeObj = true;      ///< OUT/mesh/fluid.NNNN.obj
+  /// Write OBJ vertices and normals y-up ((x, y, z) -> (x, z, -y)), so that
+  /// importers assuming y-up show the z-up scene upright. See README "Axes".
+  bool objYUp = true;
+  /// Give the VDB a y-up transform (a lattice rotation, for Houdini); default z-up
+  /// (Blender reads VDB coordinates as they are).
+  bool vdbYUp = false;
+  bool force = false;        ///< rewrite outputs that already exist
+};
+
+/// Seconds spent per stage of one frame.
+struct SurfaceTimings {
+  double rasterize = 0, filter = 0, mesh = 0, cleanup = 0, write = 0;
+  double total() const { return rasterize + filter + mesh + cleanup + write; }
+};
+
+/// What surfacing one set of particles produced (in memory).
+struct SurfaceResult {
+  TriangleMesh mesh;           ///< cleaned, outward normals, z-up world coordinates
+  double voxelSize = 0;
+  double particleSpacing = 0;
+  std::size_t activeVoxels = 0;
+  SurfaceTimings timings;
+};
+
+/// Surfaces particle positions in memory and, if `vdbPath` is not empty, writes the
+/// level set (and density) there atomically. `spacing` 0 means estimate it.
+SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spacing,
+                               const SurfaceOptions& options,
+                               const std::filesystem::path& vdbPath = {});
+
+/// Writes a mesh as OBJ, atomically, y-up ((x, y, z) -> (x, z, -y)) if `yUp`.
+void writeSurfaceObj(const std::filesystem::path& path, const TriangleMesh& mesh, bool yUp);
+
+/// One frame's outcome in surfaceFrames().
+struct SurfaceFrameReport {
+  int frame = 0;
+  bool skipped = false;   ///< outputs already complete and not forced
+  std::string error;      ///< one-line error if the frame failed
+  bool badInput = false;  ///< the error was bad input (exit 2)
+  std::size_t particles = 0, triangles = 0;
+  SurfaceTimings timings;
+};
+
+/// Surfaces the frames of `range` found in OUT/particles (.vdb preferred over .ply
+/// for the same number). Frames run in parallel; a frame whose cache is missing,
+/// truncated or foreign gets its error in the report while the others still
+/// surface. `progress` (may be empty) is called after each frame, serially.
+std::vector<SurfaceFrameReport> surfaceFrames(
+    const OutputLayout& layout, const FrameRange& range, const SurfaceOptions& options,
+    const std::function<void(const SurfaceFrameReport&)>& progress = {});
+
+} // namespace cascade

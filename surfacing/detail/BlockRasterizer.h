@@ -1,0 +1,116 @@
+/// @file BlockRasterizer.h
+/// @brief Gathers compactly supported particle kernels into the 8^3 leaves of an
+///        OpenVDB FloatGrid, one leaf per task, without atomics: each leaf adds
+///        its candidate kernels in a fixed order, so the result is deterministic.
+///
+/// Leaves are created where a kernel's support box touches them; kernels flagged
+/// `interior` (deep in the fluid) touch leaves only as contributors, not as
+/// reasons to create a leaf, so the inside of a large body is never rasterized
+/// (it becomes an inside tile after signedFloodFill). The voxel lattice is the
+/// world lattice: voxel (i, j, k) is centred at (i, j, k) * voxelSize.
+/// Internal to surfacing (includes OpenVDB).
+#pragma once
+
+#include "surfacing/ParticleGrid.h"
+
+#include <openvdb/openvdb.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace cascade::surfacing::detail {
+
+/// Voxel index range [lo, hi] covered by a support box centred at `center` with half size `half`.
+inline void supportVoxelRange(const Vec3r& center, const Eigen::Vector3f& half, double voxelSize,
+                              openvdb::Coord& lo, openvdb::Coord& hi) {
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = int(std::ceil((double(center[k]) - half[k]) / voxelSize));
+    hi[k] = int(std::floor((double(center[k]) + half[k]) / voxelSize));
+  }
+}
+
+/// Rasterizes kernels into `tree`'s leaves. `accumulate(leafOrigin, candidates, values)`
+/// fills 512 floats (VDB leaf order, z fastest) of one leaf from candidate kernel
+/// slots (sorted); it returns false to leave the leaf out.
+/// `center`, `half`, `interior` describe the kernels (interior may be empty).
+template <class Accumulate>
+void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
+                     const std::vector<Eigen::Vector3f>& half, const std::vector<std::uint8_t>& interior,
+                     double voxelSize, const Accumulate& accumulate) {
+  using LeafT = openvdb::FloatTree::LeafNodeType;
+  const std::size_t n = center.size();
+  if (n == 0) return;
+  float maxHalf = 0;
+  for (const auto& h : half) maxHalf = std::max(maxHalf, h.maxCoeff());
+  const double blockSize = LeafT::DIM * voxelSize;
+  const ParticleGrid bins(center, blockSize);
+  const int ring = int(std::ceil((maxHalf + voxelSize) / blockSize));
+
+  // Leaves touched by the supports of non-interior kernels, per bin (union of boxes).
+  std::vector<std::vector<openvdb::Coord>> perBin(bins.cellCount());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, bins.cellCount(), 64), [&](const auto& range) {
+    for (std::size_t cell = range.begin(); cell != range.end(); ++cell) {
+      const auto [begin, end] = bins.cellRange(cell);
+      openvdb::Coord lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
+      bool any = false;
+      for (std::uint32_t slot = begin; slot < end; ++slot) {
+        const std::uint32_t k = bins.sortedIndex()[slot];
+        if (!interior.empty() && interior[k]) continue;
+        openvdb::Coord a, b;
+        supportVoxelRange(center[k], half[k], voxelSize, a, b);
+        lo.minComponent(a);
+        hi.maxComponent(b);
+        any = true;
+      }
+      if (!any) continue;
+      auto& leaves = perBin[cell];
+      const openvdb::Coord first = lo & ~(LeafT::DIM - 1), last = hi & ~(LeafT::DIM - 1);
+      for (int x = first.x(); x <= last.x(); x += LeafT::DIM)
+        for (int y = first.y(); y <= last.y(); y += LeafT::DIM)
+          for (int z = first.z(); z <= last.z(); z += LeafT::DIM) leaves.emplace_back(x, y, z);
+    }
+  });
+  std::vector<openvdb::Coord> origins;
+  for (auto& leaves : perBin) origins.insert(origins.end(), leaves.begin(), leaves.end());
+  perBin.clear();
+  perBin.shrink_to_fit();
+  tbb::parallel_sort(origins.begin(), origins.end());
+  origins.erase(std::unique(origins.begin(), origins.end()), origins.end());
+
+  std::vector<LeafT*> leaves(origins.size(), nullptr);
+  std::vector<std::uint8_t> keep(origins.size(), 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, origins.size(), 8), [&](const auto& range) {
+    std::vector<std::uint32_t> candidates;
+    std::vector<float> values(LeafT::SIZE);
+    for (std::size_t b = range.begin(); b != range.end(); ++b) {
+      const openvdb::Coord& origin = origins[b];
+      const openvdb::Coord lastVoxel = origin.offsetBy(LeafT::DIM - 1);
+      // Bin of the leaf's centre; candidates from bins within `ring`.
+      const Vec3r leafCenter = Vec3r(origin.x() + 3.5, origin.y() + 3.5, origin.z() + 3.5) * Real(voxelSize);
+      candidates.clear();
+      bins.forEachInNeighborCells(bins.cellOf(leafCenter), [&](std::uint32_t slot) {
+        const std::uint32_t k = bins.sortedIndex()[slot];
+        openvdb::Coord a, c;
+        supportVoxelRange(center[k], half[k], voxelSize, a, c);
+        if (c.x() < origin.x() || c.y() < origin.y() || c.z() < origin.z() || a.x() > lastVoxel.x() ||
+            a.y() > lastVoxel.y() || a.z() > lastVoxel.z())
+          return;
+        candidates.push_back(k);
+      }, ring);
+      std::sort(candidates.begin(), candidates.end());
+      std::fill(values.begin(), values.end(), 0.0f);
+      if (!accumulate(origin, candidates, values.data())) continue;
+      auto* leaf = new LeafT(origin, 0.0f, false);
+      std::copy(values.begin(), values.end(), leaf->buffer().data());
+      leaves[b] = leaf;
+      keep[b] = 1;
+    }
+  });
+  for (std::size_t b = 0; b < origins.size(); ++b)
+    if (keep[b]) tree.addLeaf(leaves[b]);
+}
+
+} // namespace cascade::surfacing::detail
