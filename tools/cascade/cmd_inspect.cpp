@@ -6,6 +6,7 @@
 #include "libsph/Errors.h"
 #include "libsph/io/ParticleCache.h"
 #include "libsph/io/TriangleMesh.h"
+#include "libsph/io/VdbFile.h"
 
 #include <openvdb/openvdb.h>
 #include <openvdb/points/PointDataGrid.h>
@@ -86,10 +87,19 @@ void inspectVolume(const fs::path& path, openvdb::GridPtrVecPtr grids) {
 
 void inspectVdb(const fs::path& path) {
   openvdb::initialize();
+  validateVdbFile(path);  // truncated or foreign files: InputError before OpenVDB reads them
   openvdb::GridPtrVecPtr grids;
   try {
     openvdb::io::File file(path.string());
-    file.open();
+    file.open(false);
+    // Grid descriptors only: point grids are read by readParticleFrame.
+    for (openvdb::io::File::NameIterator name = file.beginName(); name != file.endName(); ++name) {
+      const openvdb::GridBase::Ptr meta = file.readGridMetadata(name.gridName());
+      if (meta->type() == openvdb::points::PointDataGrid::gridType()) {
+        file.close();
+        return inspectParticles(path);
+      }
+    }
     grids = file.getGrids();
     file.close();
   } catch (const std::exception& error) {
