@@ -31,6 +31,7 @@ AnisotropicKernels computeAnisotropicKernels(const ParticleGrid& grid,
   kernels.interior.resize(n);
 
   const std::vector<Vec3r>& position = grid.sortedPosition();
+  const float radius2 = float(neighborRadius * neighborRadius), inverseRadius = float(1 / neighborRadius);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.cellCount(), 16), [&](const auto& cells) {
     std::vector<std::uint32_t> near;
     for (std::size_t cell = cells.begin(); cell != cells.end(); ++cell) {
@@ -40,22 +41,31 @@ AnisotropicKernels computeAnisotropicKernels(const ParticleGrid& grid,
       const auto [begin, end] = grid.cellRange(cell);
       for (std::uint32_t i = begin; i < end; ++i) {
         const Eigen::Vector3d xi = position[i].cast<double>();
-        double weightSum = 0;
-        Eigen::Vector3d weightedSum = Eigen::Vector3d::Zero();
-        Eigen::Matrix3d secondMoment = Eigen::Matrix3d::Zero();
+        const Eigen::Vector3f xf = position[i].cast<float>();
+        float weightSumF = 0;
+        Eigen::Vector3f weightedSumF = Eigen::Vector3f::Zero();
+        float xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0;
         int count = 0;
         for (std::uint32_t j : near) {
-          if (j == i) continue;
-          const Eigen::Vector3d offset = position[j].cast<double>() - xi;
-          const double r2 = offset.squaredNorm();
-          if (r2 >= neighborRadius * neighborRadius) continue;
-          const double q = std::sqrt(r2) / neighborRadius;
-          const double w = 1 - q * q * q;  // Yu & Turk eq. 11
+          const Eigen::Vector3f offset = position[j].template cast<float>() - xf;
+          const float r2 = offset.squaredNorm();
+          if (r2 >= radius2 || j == i) continue;
+          const float q = std::sqrt(r2) * inverseRadius;
+          const float w = 1 - q * q * q;  // Yu & Turk eq. 11
           ++count;
-          weightSum += w;
-          weightedSum += w * offset;
-          secondMoment += w * offset * offset.transpose();
+          weightSumF += w;
+          weightedSumF += w * offset;
+          xx += w * offset.x() * offset.x();
+          xy += w * offset.x() * offset.y();
+          xz += w * offset.x() * offset.z();
+          yy += w * offset.y() * offset.y();
+          yz += w * offset.y() * offset.z();
+          zz += w * offset.z() * offset.z();
         }
+        const double weightSum = weightSumF;
+        const Eigen::Vector3d weightedSum = weightedSumF.cast<double>();
+        Eigen::Matrix3d secondMoment;
+        secondMoment << xx, xy, xz, xy, yy, yz, xz, yz, zz;
         Eigen::Matrix3d G = Eigen::Matrix3d::Identity() / support;
         Eigen::Vector3d mean = Eigen::Vector3d::Zero();
         if (count >= settings.minNeighbors) {

@@ -4,10 +4,6 @@
 #include "surfacing/detail/BlockRasterizer.h"
 #include "surfacing/detail/ImplicitToLevelSet.h"
 
-#include <chrono>
-#include <cstdio>
-#include <cstdlib>
-
 namespace cascade::surfacing {
 
 // Calibrated (tests/surfacing: flat block, ball) with centre smoothing 0.5 and
@@ -23,17 +19,8 @@ openvdb::FloatGrid::Ptr anisotropicLevelSet(const std::vector<Vec3r>& positions,
   kernelSettings.spacing = s;
   if (settings.radius > 0) kernelSettings.supportRadius *= settings.radius / (0.5 * s);
   const double cellSize = std::max(kernelSettings.neighborRadius, kernelSettings.supportRadius) * s;
-  auto t0 = std::chrono::steady_clock::now();
-  auto lap = [&](const char* what) {
-    if (!getenv("CASCADE_PROFILE")) return;
-    auto t1 = std::chrono::steady_clock::now();
-    fprintf(stderr, "  %s %.1f ms\n", what, std::chrono::duration<double>(t1 - t0).count() * 1e3);
-    t0 = t1;
-  };
   const ParticleGrid grid(positions, cellSize);
-  lap("grid");
   const AnisotropicKernels kernels = computeAnisotropicKernels(grid, kernelSettings);
-  lap("kernels");
   static const std::vector<std::uint8_t> none;
 
   openvdb::FloatTree field(0.0f);
@@ -51,28 +38,30 @@ openvdb::FloatGrid::Ptr anisotropicLevelSet(const std::vector<Vec3r>& positions,
       const Eigen::Matrix3f& G = kernels.transform[k];
       const float weight = kernels.weight[k];
       const Eigen::Vector3f p = (kernels.center[k].cast<double>() - originWorld).cast<float>();
-      const Eigen::Vector3f stepZ = G.col(2) * step;
+      const Eigen::Vector3f stepZ = G.col(2) * step;  // q = G d changes by this per voxel along z
+      const float bb = stepZ.squaredNorm();
       for (int x = lo.x(); x <= hi.x(); ++x)
         for (int y = lo.y(); y <= hi.y(); ++y) {
           const Eigen::Vector3f d(float(x - origin.x()) * step - p.x(), float(y - origin.y()) * step - p.y(),
-                                  float(lo.z() - origin.z()) * step - p.z());
-          Eigen::Vector3f q = G * d;  // Yu & Turk eq. 13: W(r, G) = det(G) P(|G r|)
+                                  -p.z());
+          const Eigen::Vector3f a = G * d;  // q at local z = 0; Yu & Turk eq. 13: W = det(G) P(|G r|)
+          // |a + t stepZ|^2 < 1 for t in (t1, t2): only those voxels of the row.
+          const float ab = a.dot(stepZ), discriminant = ab * ab - bb * (a.squaredNorm() - 1);
+          if (discriminant <= 0) continue;
+          const float root = std::sqrt(discriminant);
+          const int z0 = std::max(lo.z() - origin.z(), int(std::ceil((-ab - root) / bb)));
+          const int z1 = std::min(hi.z() - origin.z(), int(std::floor((-ab + root) / bb)));
           float* row = out + (((x - origin.x()) << 6) | ((y - origin.y()) << 3));
-          for (int z = lo.z(); z <= hi.z(); ++z, q += stepZ) {
-            const float r2 = q.squaredNorm();
-            if (r2 >= 1) continue;
-            const float t = 1 - r2;
-            row[z - origin.z()] += weight * t * t * t;
+          for (int z = z0; z <= z1; ++z) {
+            const Eigen::Vector3f q = a + float(z) * stepZ;
+            const float t = std::max(0.0f, 1 - q.squaredNorm());
+            row[z] += weight * t * t * t;
           }
         }
     }
     return true;
   });
-  lap("rasterize");
-  if (getenv("CASCADE_PROFILE")) fprintf(stderr, "  leaves %zu\n", size_t(field.leafCount()));
-  auto result = detail::implicitToLevelSet(field, float(kAnisotropicIso), true, dx, settings.halfWidth);
-  lap("toLevelSet");
-  return result;
+  return detail::implicitToLevelSet(field, float(kAnisotropicIso), true, dx, settings.halfWidth);
 }
 
 } // namespace cascade::surfacing

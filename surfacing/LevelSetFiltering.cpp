@@ -8,7 +8,7 @@ void filterLevelSet(openvdb::FloatGrid& grid, SurfaceFilter filter, int passes) 
   openvdb::tools::LevelSetFilter<openvdb::FloatGrid> levelSetFilter(grid);
   levelSetFilter.setSpatialScheme(openvdb::math::FIRST_BIAS);
   levelSetFilter.setTemporalScheme(openvdb::math::TVD_RK1);
-  levelSetFilter.setNormCount(2);
+  levelSetFilter.setNormCount(1);  // one Eikonal iteration after each pass
   levelSetFilter.setGrainSize(1);
   if (filter == SurfaceFilter::None || passes <= 0) {
     levelSetFilter.track();

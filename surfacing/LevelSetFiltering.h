@@ -2,7 +2,8 @@
 /// @brief Smoothing passes on a narrow-band level set with OpenVDB's
 ///        tools::LevelSetFilter (mean-curvature flow, Gaussian or Laplacian
 ///        passes, each followed by renormalisation of the band, Osher & Fedkiw
-///        2003 ch. 7): first-order upwind gradients, one Euler step per pass.
+///        2003 ch. 7): first-order upwind gradients, one Euler step and one renormalisation
+///        iteration per pass.
 ///        Internal to surfacing (includes OpenVDB).
 #pragma once
 

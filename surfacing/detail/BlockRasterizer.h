@@ -43,11 +43,8 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
   using LeafT = openvdb::FloatTree::LeafNodeType;
   const std::size_t n = center.size();
   if (n == 0) return;
-  float maxHalf = 0;
-  for (const auto& h : half) maxHalf = std::max(maxHalf, h.maxCoeff());
   const double blockSize = LeafT::DIM * voxelSize;
   const ParticleGrid bins(center, blockSize);
-  const int ring = int(std::ceil((maxHalf + voxelSize) / blockSize));
 
   // Leaves touched by the supports of non-interior kernels, per bin (union of boxes).
   std::vector<std::vector<openvdb::Coord>> perBin(bins.cellCount());
@@ -80,37 +77,64 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
   tbb::parallel_sort(origins.begin(), origins.end());
   origins.erase(std::unique(origins.begin(), origins.end()), origins.end());
 
+  // (leaf, kernel) pairs: every kernel lists the leaves its support box overlaps;
+  // sorted, they give each leaf its candidates in kernel order (deterministic).
+  auto leafIndex = [&](const openvdb::Coord& origin) -> std::int64_t {
+    const auto it = std::lower_bound(origins.begin(), origins.end(), origin);
+    return it != origins.end() && *it == origin ? std::int64_t(it - origins.begin()) : -1;
+  };
+  const std::size_t chunk = 16384, chunks = (n + chunk - 1) / chunk;
+  std::vector<std::vector<std::uint64_t>> chunkPairs(chunks);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& range) {
+    for (std::size_t c = range.begin(); c != range.end(); ++c) {
+      auto& pairs = chunkPairs[c];
+      for (std::size_t k = c * chunk; k < std::min(n, (c + 1) * chunk); ++k) {
+        openvdb::Coord lo, hi;
+        supportVoxelRange(center[k], half[k], voxelSize, lo, hi);
+        if (lo.x() > hi.x() || lo.y() > hi.y() || lo.z() > hi.z()) continue;
+        const openvdb::Coord first = lo & ~(LeafT::DIM - 1), last = hi & ~(LeafT::DIM - 1);
+        for (int x = first.x(); x <= last.x(); x += LeafT::DIM)
+          for (int y = first.y(); y <= last.y(); y += LeafT::DIM)
+            for (int z = first.z(); z <= last.z(); z += LeafT::DIM) {
+              const std::int64_t leaf = leafIndex(openvdb::Coord(x, y, z));
+              if (leaf >= 0) pairs.push_back((std::uint64_t(leaf) << 32) | std::uint64_t(k));
+            }
+      }
+    }
+  });
+  std::vector<std::uint64_t> pairs;
+  {
+    std::size_t total = 0;
+    for (const auto& p : chunkPairs) total += p.size();
+    pairs.reserve(total);
+    for (auto& p : chunkPairs) {
+      pairs.insert(pairs.end(), p.begin(), p.end());
+      std::vector<std::uint64_t>().swap(p);
+    }
+  }
+  tbb::parallel_sort(pairs.begin(), pairs.end());
+  std::vector<std::size_t> leafStart(origins.size() + 1, pairs.size());
+  for (std::size_t i = pairs.size(); i-- > 0;) leafStart[pairs[i] >> 32] = i;
+  for (std::size_t b = origins.size(); b-- > 0;)  // leaves without pairs: empty ranges
+    if (leafStart[b] > leafStart[b + 1]) leafStart[b] = leafStart[b + 1];
+
   std::vector<LeafT*> leaves(origins.size(), nullptr);
-  std::vector<std::uint8_t> keep(origins.size(), 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, origins.size(), 8), [&](const auto& range) {
     std::vector<std::uint32_t> candidates;
     std::vector<float> values(LeafT::SIZE);
     for (std::size_t b = range.begin(); b != range.end(); ++b) {
-      const openvdb::Coord& origin = origins[b];
-      const openvdb::Coord lastVoxel = origin.offsetBy(LeafT::DIM - 1);
-      // Bin of the leaf's centre; candidates from bins within `ring`.
-      const Vec3r leafCenter = Vec3r(origin.x() + 3.5, origin.y() + 3.5, origin.z() + 3.5) * Real(voxelSize);
       candidates.clear();
-      bins.forEachInNeighborCells(bins.cellOf(leafCenter), [&](std::uint32_t slot) {
-        const std::uint32_t k = bins.sortedIndex()[slot];
-        openvdb::Coord a, c;
-        supportVoxelRange(center[k], half[k], voxelSize, a, c);
-        if (c.x() < origin.x() || c.y() < origin.y() || c.z() < origin.z() || a.x() > lastVoxel.x() ||
-            a.y() > lastVoxel.y() || a.z() > lastVoxel.z())
-          return;
-        candidates.push_back(k);
-      }, ring);
-      std::sort(candidates.begin(), candidates.end());
+      for (std::size_t i = leafStart[b]; i < leafStart[b + 1]; ++i)
+        candidates.push_back(std::uint32_t(pairs[i] & 0xffffffffu));
       std::fill(values.begin(), values.end(), 0.0f);
-      if (!accumulate(origin, candidates, values.data())) continue;
-      auto* leaf = new LeafT(origin, 0.0f, false);
+      if (!accumulate(origins[b], candidates, values.data())) continue;
+      auto* leaf = new LeafT(origins[b], 0.0f, false);
       std::copy(values.begin(), values.end(), leaf->buffer().data());
       leaves[b] = leaf;
-      keep[b] = 1;
     }
   });
-  for (std::size_t b = 0; b < origins.size(); ++b)
-    if (keep[b]) tree.addLeaf(leaves[b]);
+  for (LeafT* leaf : leaves)
+    if (leaf) tree.addLeaf(leaf);
 }
 
 } // namespace cascade::surfacing::detail

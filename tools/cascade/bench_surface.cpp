@@ -9,6 +9,7 @@
 #include "surfacing/SurfaceStage.h"
 
 #include <chrono>
+#include <ctime>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -16,6 +17,7 @@
 #include <iostream>
 #include <random>
 #include <sstream>
+#include <sys/times.h>
 #include <unistd.h>
 
 namespace cascade::cli {
@@ -36,25 +38,25 @@ std::vector<Vec3r> splashParticles() {
     points.emplace_back(Real(x + jitter()), Real(y + jitter()), Real(z + jitter()));
   };
   const double s = kSpacing;
-  // Pool: 1.2 x 0.75 m, 8.4 cm deep, with a swell.
-  const double poolX = 1.2, poolY = 0.75;
+  // Pool: 1.2 x 0.75 m, 15.4 cm deep, with a ring wave.
+  const double poolX = 1.2, poolY = 0.75, poolDepth = 0.154;
   const Vec3d columnCenter(0.6, 0.375, 0);
   for (double x = 0.5 * s; x < poolX; x += s)
     for (double y = 0.5 * s; y < poolY; y += s) {
       const double r = std::hypot(x - columnCenter.x(), y - columnCenter.y());
-      const double depth = 0.084 + 0.02 * std::exp(-std::pow((r - 0.3) / 0.06, 2));  // ring wave
+      const double depth = poolDepth + 0.02 * std::exp(-std::pow((r - 0.3) / 0.06, 2));  // ring wave
       for (double z = 0.5 * s; z < depth; z += s) add(x, y, z);
     }
   // Collapsing column: a cylinder whose foot spreads out, on top of the pool.
-  for (double z = 0.084 + 0.5 * s; z < 0.62; z += s) {
-    const double radius = 0.09 + 0.12 * std::exp(-(z - 0.084) / 0.05);
+  for (double z = poolDepth + 0.5 * s; z < poolDepth + 0.54; z += s) {
+    const double radius = 0.09 + 0.12 * std::exp(-(z - poolDepth) / 0.05);
     for (double x = -radius; x <= radius; x += s)
       for (double y = -radius; y <= radius; y += s)
         if (x * x + y * y <= radius * radius) add(columnCenter.x() + x, columnCenter.y() + y, z);
   }
   // Crown: a thin sheet (one particle thick) rising from the ring wave.
-  for (double z = 0.11; z < 0.24; z += s) {
-    const double radius = 0.3 + 0.4 * (z - 0.11);
+  for (double z = poolDepth + 0.026; z < poolDepth + 0.156; z += s) {
+    const double radius = 0.3 + 0.4 * (z - poolDepth - 0.026);
     const int n = int(2 * M_PI * radius / s);
     for (int i = 0; i < n; ++i) {
       const double a = 2 * M_PI * (i + 0.5 * (int(z / s) % 2)) / n;
@@ -65,7 +67,7 @@ std::vector<Vec3r> splashParticles() {
   std::size_t droplets = 0;
   while (droplets < 150000) {
     const double a = 2 * M_PI * unit(random), r = 0.1 + 0.45 * unit(random);
-    const double height = 0.12 + 0.45 * unit(random) * (1 - 0.6 * r);
+    const double height = poolDepth + 0.036 + 0.45 * unit(random) * (1 - 0.6 * r);
     const double x = columnCenter.x() + r * std::cos(a), y = columnCenter.y() + r * std::sin(a);
     const int size = unit(random) < 0.7 ? 1 : 2 + int(6 * unit(random));
     for (int k = 0; k < size && droplets < 150000; ++k, ++droplets)
@@ -80,7 +82,7 @@ double milliseconds(double seconds) { return std::round(seconds * 1e4) / 10; }
 
 BenchTable benchSurface() {
   BenchTable table("surface", {"method", "n_particles", "voxel_size", "rasterize_ms", "filter_ms", "mesh_ms",
-                               "cleanup_ms", "write_ms", "total_ms", "triangles", "vs_vdb_tool"});
+                               "cleanup_ms", "write_ms", "total_ms", "cpu_ms", "triangles", "vs_vdb_tool"});
   const std::vector<Vec3r> points = splashParticles();
   const fs::path dir = fs::temp_directory_path() / ("cascade_bench_surface_" + std::to_string(::getpid()));
   fs::create_directories(dir);
@@ -89,28 +91,30 @@ BenchTable benchSurface() {
   struct Row {
     std::string method;
     SurfaceTimings timings;
+    double cpu;  // process CPU seconds, all threads: load-independent
     std::size_t triangles;
   };
   std::vector<Row> rows;
   for (SurfaceMethod method :
        {SurfaceMethod::AnisotropicKernels, SurfaceMethod::SmoothSpheres, SurfaceMethod::UnionOfSpheres}) {
-    if (getenv("BENCH_ONLY") && surfaceMethodName(method) != getenv("BENCH_ONLY")) continue;
     SurfaceOptions options;
     options.method = method;
     options.voxelSize = kVoxel;
+    const std::clock_t cpuStart = std::clock();
     SurfaceResult result = surfaceParticles(points, kSpacing, options, dir / "surface.vdb");
     const auto start = std::chrono::steady_clock::now();
     writeSurfaceObj(dir / "fluid.obj", result.mesh, true);
     result.timings.write += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    rows.push_back({surfaceMethodName(method), result.timings, result.mesh.triangles.size()});
+    const double cpu = double(std::clock() - cpuStart) / CLOCKS_PER_SEC;
+    rows.push_back({surfaceMethodName(method), result.timings, cpu, result.mesh.triangles.size()});
     std::cerr << "bench surface: " << rows.back().method << " " << milliseconds(result.timings.total())
               << " ms\n";
   }
 
   // vdb_tool on the same points, as a PLY file (its own reading and writing included).
-  double vdbToolMs = -1;
+  double vdbToolMs = -1, vdbToolCpuMs = -1;
   std::size_t vdbToolTriangles = 0;
-  if (!getenv("BENCH_NO_VDBTOOL")) {
+  {
     ParticleFrame frame;
     frame.position = points;
     writeParticlePly(dir / "pts.ply", frame);
@@ -119,7 +123,12 @@ BenchTable benchSurface() {
             << " radius=2.0 width=3 -gauss iter=1 size=1 -ls2mesh adapt=0 -write " << (dir / "out.obj").string()
             << " > " << (dir / "vdb_tool.log").string() << " 2>&1";
     const auto start = std::chrono::steady_clock::now();
+    struct tms before {}, after {};
+    ::times(&before);
     const int status = std::system(command.str().c_str());
+    ::times(&after);
+    vdbToolCpuMs = 1000.0 * double((after.tms_cutime - before.tms_cutime) + (after.tms_cstime - before.tms_cstime)) /
+                   double(::sysconf(_SC_CLK_TCK));
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (status == 0 && fs::exists(dir / "out.obj")) {
       vdbToolMs = milliseconds(seconds);
@@ -133,10 +142,10 @@ BenchTable benchSurface() {
     table.addRow({row.method, (long long)points.size(), kVoxel, milliseconds(row.timings.rasterize),
                   milliseconds(row.timings.filter), milliseconds(row.timings.mesh),
                   milliseconds(row.timings.cleanup), milliseconds(row.timings.write), total,
-                  (long long)row.triangles, vdbToolMs > 0 ? std::round(vdbToolMs / total * 100) / 100 : 0.0});
+                  milliseconds(row.cpu), (long long)row.triangles, vdbToolMs > 0 ? std::round(vdbToolMs / total * 100) / 100 : 0.0});
   }
   table.addRow({std::string("vdb_tool"), (long long)points.size(), kVoxel, 0.0, 0.0, 0.0, 0.0, 0.0, vdbToolMs,
-                (long long)vdbToolTriangles, 1.0});
+                std::round(vdbToolCpuMs), (long long)vdbToolTriangles, 1.0});
   fs::remove_all(dir);
   return table;
 }
