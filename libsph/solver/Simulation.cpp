@@ -234,7 +234,8 @@ double Simulation::computeTimeStep() const {
   double dt = solver.cflFactor * h / (double(mConstants.speedOfSound) + std::sqrt(double(maxSpeed2)));
   const double nu = mSettings.fluid.viscosity / mSettings.fluid.restDensity;
   if (nu > 0) dt = std::min(dt, 0.125 * h * h / nu);
-  if (mLastMaxAcceleration > 0) dt = std::min(dt, 0.25 * std::sqrt(h / double(mLastMaxAcceleration)));
+  const double forceFactor = mTimeStep->needs(mSettings, mConstants).forceStepFactor;
+  if (mLastMaxAcceleration > 0) dt = std::min(dt, forceFactor * std::sqrt(h / double(mLastMaxAcceleration)));
   return std::clamp(dt, double(solver.minTimeStep), double(solver.maxTimeStep));
 }
 

@@ -54,7 +54,7 @@ struct SolverSettings {
   PressureForce pressureForce = PressureForce::Symmetric;
   bool clampNegativePressure = true;  ///< p = max(p, 0): no tensile pull at the free surface
   /// Monaghan (1992) artificial viscosity alpha, added to SEED (6) for stability; 0 = off.
-  Real artificialViscosity = Real(0.05);
+  Real artificialViscosity = Real(0.1);
 
   /// The largest speed the scene is expected to produce, m/s. 0: the free-fall
   /// speed sqrt(2 |g| H) over the height H from the lowest boundary (or fluid)

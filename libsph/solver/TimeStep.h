@@ -71,6 +71,8 @@ struct TimeStepNeeds {
   Real sampleGap = 0;
   /// Radius of each fluid particle's type I sample list, m (0: r0 of SEED (11)).
   Real sampleRadius = 0;
+  /// Force limit of the time step: dt <= forceStepFactor sqrt(h / a_max).
+  Real forceStepFactor = Real(0.25);
 };
 
 class TimeStep {

@@ -140,20 +140,47 @@ void computeFluidAcceleration(StepContext& c) {
   const NeighborLists& nl = c.neighbors;
   const Vec3r gravity = c.settings.solver.gravity;
   std::vector<Vec3r>& acceleration = c.acceleration;
-  acceleration.resize(particles.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles.size(), 512), [&](const auto& range) {
+  const std::size_t n = particles.size();
+  acceleration.resize(n);
+  // 1 / rho once per particle, so the pair loop has one division (and one sqrt).
+  static thread_local std::vector<Real> inverseDensity;
+  inverseDensity.resize(n);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) inverseDensity[i] = Real(1) / particles.density[i];
+  });
+  const Real h = terms.spiky.supportRadius, h2 = terms.supportRadius2;
+  const Real gradientCoeff = terms.spiky.gradientCoeff;
+  const Real pressureCoeff = -terms.mass * terms.pressureFactor;  // SEED (5) / rho_i
+  const Real artificialCoeff = Real(2) * terms.mass * terms.artificialCoeff;
+  const Real viscosityCoeff = terms.viscosityCoeff * terms.viscosity.laplacianCoeff;
+  const Real* invRho = inverseDensity.data();
+  const Vec3r* x = particles.position.data();
+  const Vec3r* v = particles.velocity.data();
+  const Real* p = particles.pressure.data();
+  const Real* rho = particles.density.data();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const Vec3r xi = particles.position[i], vi = particles.velocity[i];
-      const Real pi = particles.pressure[i], rhoi = particles.density[i];
-      Vec3r a = gravity;
+      const Vec3r xi = x[i], vi = v[i];
+      const Real pi = p[i], rhoi = rho[i], invRhoi = invRho[i];
+      Vec3r a = Vec3r::Zero(), viscous = Vec3r::Zero();
       for (const std::uint32_t* jp = nl.begin(i); jp != nl.end(i); ++jp) {
         const std::uint32_t j = *jp;
-        const Vec3r r = xi - particles.position[j];
+        const Vec3r r = xi - x[j];
         const Real r2 = r.squaredNorm();
-        if (r2 >= terms.supportRadius2 || r2 <= Real(0)) continue;
-        a += terms(r, r2, pi, rhoi, vi, particles.pressure[j], particles.density[j], particles.velocity[j]);
+        if (r2 >= h2 || r2 <= Real(0)) continue;
+        const Real len = std::sqrt(r2);
+        const Real diff = h - len;
+        // grad W_spiky = -45/(pi h^6) (h - r)^2 r/|r|  (SEED (8)); scalar part over |r|
+        const Real invRhoj = invRho[j];
+        Real scalar = pressureCoeff * (pi + p[j]) * invRhoi * invRhoj;
+        const Vec3r relativeVelocity = vi - v[j];
+        const Real vr = relativeVelocity.dot(r);
+        if (vr < 0 && artificialCoeff > 0)  // Monaghan 1992
+          scalar += artificialCoeff * vr / ((rhoi + rho[j]) * (r2 + terms.epsilon2));
+        a += (scalar * gradientCoeff * diff * diff / len) * r;
+        if (viscosityCoeff > 0) viscous -= (diff * invRhoj) * relativeVelocity;  // SEED (6)
       }
-      acceleration[i] = a;
+      acceleration[i] = gravity + a + (viscosityCoeff * invRhoi) * viscous;
     }
   });
 }
