@@ -369,7 +369,8 @@ void OctreeSearch::query(const Vec3r* queries, std::size_t count, const Real* su
         keys[i] = mortonEncode(c[0], c[1], c[2]);
       }
     });
-    radixSortPairs(keys, ownOrder, 3 * kLevels, keyScratch, indexScratch);
+    // Coherence only needs the first eight levels of the curve.
+    radixSortPairs(keys, ownOrder, 3 * kLevels, keyScratch, indexScratch, 3 * kLevels - 24);
     queryOrder = ownOrder.data();
   }
   const std::uint32_t chunkSize = static_cast<std::uint32_t>(std::max<std::size_t>(512, count / 256));

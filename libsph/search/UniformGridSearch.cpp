@@ -531,12 +531,17 @@ void UniformGridSearch::query(const Vec3r* queries, std::size_t count, const Rea
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 8192), [&](const auto& range) {
       for (std::size_t i = range.begin(); i != range.end(); ++i) {
         std::uint32_t c[3];
+        // Queries outside the occupied box group with its border cells (they
+        // take the general path: their own cell is not the group's).
         for (int a = 0; a < 3; ++a)
-          c[a] = clampCell(cellFloor((double(queries[i][a]) - mOrigin[a]) * mInvCellSize));
+          c[a] = std::min(clampCell(cellFloor((double(queries[i][a]) - mOrigin[a]) * mInvCellSize)),
+                          mMaxCell[a]);
         keys[i] = mortonEncode(c[0], c[1], c[2]);
       }
     });
-    radixSortPairs(keys, ownOrder, 63, keyScratch, indexScratch);
+    const int keyBits = 3 * bitWidth(std::max({std::uint64_t(mMaxCell[0]), std::uint64_t(mMaxCell[1]),
+                                               std::uint64_t(mMaxCell[2])}));
+    radixSortPairs(keys, ownOrder, keyBits, keyScratch, indexScratch);
     for (std::size_t s = 0; s < count; ++s)
       if (s == 0 || keys[s] != keys[s - 1]) {
         ownGroupStart.push_back(static_cast<std::uint32_t>(s));
