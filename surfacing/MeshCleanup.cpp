@@ -178,7 +178,8 @@ MeshCleanupStats cleanupMesh(TriangleMesh& mesh, const MeshCleanupSettings& sett
       CGAL::Polygon_mesh_processing::isotropic_remeshing(faces(cgalMesh), settings.remeshEdgeLength, cgalMesh);
     if (settings.triangleBudget > 0 && cgalMesh.number_of_faces() > settings.triangleBudget) {
       namespace SMS = CGAL::Surface_mesh_simplification;
-      SMS::Count_stop_predicate<CgalMesh> stop(settings.triangleBudget);
+      // Stops below a number of edges; a closed triangle mesh has 3/2 edges per face.
+      SMS::Count_stop_predicate<CgalMesh> stop(settings.triangleBudget * 3 / 2);
       SMS::edge_collapse(cgalMesh, stop);
     }
     cgalMesh.collect_garbage();

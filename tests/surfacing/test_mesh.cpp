@@ -84,6 +84,28 @@ INSTANTIATE_TEST_SUITE_P(Methods, BallMeshTest,
                                            BallCase{SurfaceMethod::UnionOfSpheres, 0.25}),
                          [](const auto& info) { return surfaceMethodName(info.param.method); });
 
+TEST(SurfaceMesh, TriangleBudgetAndRemeshKeepTheBall) {
+  const auto points = test::latticeBall(Vec3d(0, 0, 0), 8 * kSpacing, kSpacing);
+  const double volume = points.size() * std::pow(kSpacing, 3);
+  SurfaceOptions options;
+  const SurfaceResult full = surfaceParticles(points, kSpacing, options);
+  options.triangleBudget = 2000;
+  const SurfaceResult decimated = surfaceParticles(points, kSpacing, options);
+  std::printf("budget: %zu -> %zu triangles, volume %.4g vs %.4g\n", full.mesh.triangles.size(),
+              decimated.mesh.triangles.size(), surfacing::meshVolume(decimated.mesh), volume);
+  EXPECT_GT(full.mesh.triangles.size(), 4000u);
+  EXPECT_LE(decimated.mesh.triangles.size(), 2000u);
+  EXPECT_GE(decimated.mesh.triangles.size(), 1800u);
+  EXPECT_NEAR(surfacing::meshVolume(decimated.mesh) / volume, 1.0, 0.05);
+  options.triangleBudget = 0;
+  options.remeshEdgeLength = 2 * kSpacing;
+  const SurfaceResult remeshed = surfaceParticles(points, kSpacing, options);
+  std::printf("remesh: %zu triangles, volume %.4g\n", remeshed.mesh.triangles.size(),
+              surfacing::meshVolume(remeshed.mesh));
+  EXPECT_LT(remeshed.mesh.triangles.size(), full.mesh.triangles.size() / 4);
+  EXPECT_NEAR(surfacing::meshVolume(remeshed.mesh) / volume, 1.0, 0.05);
+}
+
 TEST(SurfaceMesh, DeterministicAndWorldAligned) {
   const auto points = test::latticeBall(Vec3d(0.0, 0.0, 0.0), 6 * kSpacing, kSpacing, 0.1 * kSpacing);
   SurfaceOptions options;
