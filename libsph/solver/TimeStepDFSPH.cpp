@@ -11,8 +11,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <istream>
 #include <limits>
@@ -27,7 +25,7 @@ double millisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-static const Real kWarmStartFactor = std::getenv("DFSPH_WARM") ? Real(std::atof(std::getenv("DFSPH_WARM"))) : Real(0.5);     // B&K 2017 / SPlisHSPlasH: half the last stiffness
+constexpr Real kWarmStartFactor = Real(0.5);     // B&K 2017 / SPlisHSPlasH: half the last stiffness
 constexpr int kMinDensityIterations = 2;         // SPlisHSPlasH's minimum for the constant-density solve
 constexpr std::uint32_t kMinDivergenceNeighbors = 20;  // B&K 2017: no divergence solve at the surface
 constexpr std::size_t kChunk = 1024;
@@ -88,6 +86,9 @@ TimeStepNeeds TimeStepDFSPH::needs(const SimulationSettings&, const DerivedConst
   TimeStepNeeds needs;
   needs.speedOfSoundInCfl = false;  // incompressible: CFL on the velocity only
   needs.mirrorParticles = true;     // the boundary model: type II mirror particles (SEED section 2.2)
+  // The Jacobi solves stay stable while a step compresses by less than about 1 % under the
+  // non-pressure accelerations a: dt <= 0.06 sqrt(h / a) (measured: unstable from 0.09 to 0.12).
+  needs.forceStepFactor = Real(0.06);
   return needs;
 }
 
@@ -208,6 +209,8 @@ void TimeStepDFSPH::prepare(StepContext& c) {
   const Real selfValue = kernel.value(0);
   const Real restDensity = c.settings.fluid.restDensity;
   const Real floor = mFactorFloor;
+  const std::vector<MirrorMap>& maps = boundary.mirrors();
+  const bool noSlip = c.settings.boundary.slip == MirrorSlip::NoSlip;
   forEachParticle(n, [&](std::size_t i) {
     const Vec3r xi = particles.position[i];
     Real density = volume * selfValue;
@@ -222,16 +225,34 @@ void TimeStepDFSPH::prepare(StepContext& c) {
       gradientSquares += g.squaredNorm();
     }
     std::uint32_t count = nl.count(i);
+    Real denominator;
     const std::uint32_t l = mLayerIndex[i];
-    if (l != kNotInLayer) {
+    if (l == kNotInLayer) {
+      denominator = gradientSum.squaredNorm() + gradientSquares;  // B&K 2017 eq. 10
+    } else {
+      // With mirrors: i's own images move with it (their pair takes 2 kappa_i and
+      // the mirrored velocity change), so the diagonal of the density change per
+      // kappa_i is g^.g~ + sum |G|^2 - sum_self (L g~) . G_ii' with g~ the
+      // velocity-change direction (own images counted twice).
+      Vec3r change = gradientSum;
       for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g) {
         density += mGhostValue[g];
         gradientSum += mGhostGradient[g];
-        gradientSquares += mGhostGradient[g].squaredNorm();
+        if (mGhostSource[g] == i) {
+          change += Real(2) * mGhostGradient[g];
+        } else {
+          change += mGhostGradient[g];
+          gradientSquares += mGhostGradient[g].squaredNorm();
+        }
       }
+      denominator = gradientSum.dot(change) + gradientSquares;
+      for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g)
+        if (mGhostSource[g] == i) {
+          const Vec3r mirroredChange = noSlip ? Vec3r(-change) : Vec3r(maps[mGhostMap[g]].linear * change);
+          denominator -= mirroredChange.dot(mGhostGradient[g]);
+        }
       count += mGhostOffsets[l + 1] - mGhostOffsets[l];
     }
-    const Real denominator = gradientSum.squaredNorm() + gradientSquares;  // B&K 2017 eq. 10
     mFactor[i] = denominator > floor ? Real(1) / denominator : Real(0);
     mDensityRatio[i] = density;
     mNeighborCount[i] = count;
@@ -344,7 +365,7 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
     error = deterministicSum(n, divergenceResidual);
     const double tolerance = double(solver.divergenceTolerance) / double(dt) * double(n);
     int iterations = 0;
-    while (!std::getenv("DFSPH_NODIV") && iterations < maxIterations && (iterations < 1 || error > tolerance)) {
+    while (iterations < maxIterations && (iterations < 1 || error > tolerance)) {
       forEachParticle(n, [&](std::size_t i) {
         mKappaStep[i] = mResidual[i] * mFactor[i] / dt;
         mDivergenceKappa[i] += mKappaStep[i];
@@ -366,8 +387,9 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
     const Real h = c.constants.supportRadius;
     const Real epsilon2 = Real(0.01) * h * h;
     // Monaghan (1992) artificial viscosity Pi_ij = -alpha h c_ref (v_ij . x_ij) / (rho^_ij (|x_ij|^2 + 0.01 h^2))
-    // for approaching pairs, with c_ref = the scene's expected speed (DFSPH has no speed of sound).
-    const Real artificial = solver.artificialViscosity * h * c.constants.expectedSpeed;
+    // for approaching pairs, with c_ref = 10 x the scene's expected speed, the speed of sound of
+    // the default WCSPH (DFSPH has none), so both solvers get the same numerical viscosity.
+    const Real artificial = solver.artificialViscosity * h * Real(10) * c.constants.expectedSpeed;
     std::vector<Vec3r>& acceleration = c.acceleration;
     acceleration.resize(n);
     forEachParticle(n, [&](std::size_t i) {
@@ -423,7 +445,6 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
       });
       applyKappa(mKappaStep);
       error = deterministicSum(n, densityResidual);
-      if (std::getenv("DFSPH_DEBUG")) std::fprintf(stderr, "  it %d err %g\n", iterations, error / double(n));
       ++iterations;
     }
     mStatistics.densityIterations = iterations;
@@ -464,7 +485,7 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   c.timings.boundary += millisecondsSince(start);
 
   start = Clock::now();
-  if (!layer.empty() && !maps.empty() && !std::getenv("DFSPH_NOCLAMP")) {
+  if (!layer.empty() && !maps.empty()) {
     // No penetration: the solves only resist compression, so a particle of the
     // (under-dense) free surface could creep into a wall. Its normal velocity
     // towards each wall it mirrors across (single reflections: trace 1) is

@@ -6,38 +6,48 @@
 ///        divergence (divergence-free solve) at rest values to a tolerance.
 ///
 /// Each step, with the neighbour lists of the Simulation (x at time t):
-///   1. density rho_i = rho_0 (V W_ii + sum_j V W_ij + sum_b V_b W_ib) (B&K 2017
-///      eq. 5 in volume form), with the cubic spline kernel and the boundary
-///      samples' Akinci 2012 volumes V_b (BoundaryVolumes.h); the factor
-///      alpha_i = 1 / (|sum_j V grad W_ij + sum_b V_b grad W_ib|^2 + sum_j |V grad W_ij|^2)
-///      (B&K 2017 eq. 10 with V = m / rho_0);
+///   1. density rho_i = rho_0 (V W_ii + sum_j V W_ij) over fluid and mirror neighbours
+///      (B&K 2017 eq. 5 in volume form; cubic spline kernel, V the rest volume
+///      of the initial lattice) and the factor alpha_i = 1 / D_i with
+///      D_i = |sum_j V grad W_ij|^2 + sum_j |V grad W_ij|^2 (B&K 2017 eq. 10;
+///      with mirrors, a particle's own images move with it and enter D_i);
 ///   2. divergence-free solve (B&K 2017 alg. 2): kappa^v_i = (D rho_i/Dt / rho_0) alpha_i / dt,
-///      v_i -= dt sum_j V (kappa_i + kappa_j) grad W_ij + dt kappa_i sum_b V_b grad W_ib,
-///      until the mean predicted density change per step is below divergenceTolerance;
-///   3. non-pressure accelerations (gravity, viscosity), v += dt a;
+///      v_i -= dt sum_j V (kappa_i + kappa_j) grad W_ij, until the mean predicted
+///      density change of one step is below divergenceTolerance (at least one sweep);
+///   3. non-pressure accelerations: gravity, viscosity (Morris 1997 form with
+///      nu = mu / rho_0) and Monaghan (1992) artificial viscosity alpha h c_ref with
+///      c_ref = 10 x the expected speed (the default WCSPH's speed of sound), v += dt a;
 ///   4. constant-density solve (B&K 2017 alg. 3): with the predicted density
 ///      rho*_i = rho_i + dt D rho_i/Dt (only compression corrected),
 ///      kappa_i = (rho*_i / rho_0 - 1) alpha_i / dt^2, the same velocity update,
-///      until the mean (rho*_i - rho_0) / rho_0 is below densityTolerance;
+///      until the mean (rho*_i - rho_0) / rho_0 is below densityTolerance (at least
+///      two sweeps, at most maxIterations);
 ///   5. x += dt v (symplectic Euler).
 /// Warm starts (B&K 2017 section 4.1): each solve starts from half the
 /// stiffness kappa (a pressure over density, m^2/s^2) the particle ended the
 /// previous step with, kept per particle through reorders, removals and
-/// checkpoints. Reported pressure p_i = kappa_i rho_i^2 / rho_0 (from
+/// checkpoints. Reported pressure p_i = (kappa_i + kappa^v_i) rho_i^2 / rho_0 (from
 /// a_i = -sum_j m (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij).
 ///
 /// Boundaries: the SEED's type II mirror particles (Libersky & Petschke 1993),
 /// rebuilt each step by the Simulation for the fluid within kappa h of a wall,
 /// as ghost neighbours that move with their source (velocity mirrored for free
-/// slip, reversed for no slip) and share its stiffness kappa, so the
-/// incompressibility constraint holds across walls (a flat wall completes the
-/// kernel support exactly; the same model as WCSPH, so the two solvers differ
-/// only in the pressure). No repulsion particles. The force on a solid is the
-/// impulse its mirror particles gave the fluid. The time step is CFL on
-/// the velocity only (no speed of sound): dt = cfl h / v_max.
-/// Robustness: alpha_i is bounded (a particle with nearly no neighbours gets
-/// alpha 0, not 1/0); the divergence solve skips particles with fewer than 20
-/// neighbours (B&K 2017; they sit at the free surface).
+/// slip, reversed for no slip) and share its stiffness, so the constraint holds
+/// across walls (a flat wall completes the kernel support exactly; the same
+/// model as WCSPH, so the two solvers differ only in the pressure). The force on
+/// a solid is the impulse its mirror particles gave the fluid. The solves only
+/// resist compression, so an under-dense surface particle could creep into a
+/// wall: its velocity towards a wall it mirrors across is limited so that it
+/// stays a quarter spacing off.
+///
+/// Time step (TimeStepNeeds): CFL on the velocity only, dt = cfl h / v_max (no
+/// speed of sound), and dt <= 0.06 sqrt(h / a_max) with a_max the largest
+/// non-pressure acceleration (the Jacobi solves go unstable from about 0.09).
+/// A step much shorter than that (landing on a frame or probe time) removes
+/// only its share of the density error already there and keeps the warm starts.
+/// Robustness: alpha_i is 0 for a particle with nearly no neighbours (not 1/0);
+/// the divergence solve skips particles with fewer than 20 neighbours (free
+/// surface, B&K 2017); sums are taken in fixed chunks (bit-identical restarts).
 #pragma once
 
 #include "libsph/solver/TimeStep.h"

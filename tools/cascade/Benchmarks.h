@@ -4,7 +4,17 @@
 
 #include "BenchTable.h"
 
+#include <string>
+
 namespace cascade::cli {
+
+/// The output paths of the running `cascade bench` (for benchmarks that also
+/// write files, e.g. bench accuracy's plot next to the JSON).
+struct BenchPaths {
+  std::string json;  ///< --json FILE (empty: none)
+  std::string plot;  ///< --plot FILE (empty: next to the JSON)
+};
+BenchPaths& benchPaths();
 
 BenchTable benchNeighbors();  ///< bench_neighbors.cpp (issue 2)
 BenchTable benchStep();       ///< bench_step.cpp (issue 3)

@@ -1,11 +1,285 @@
+// `cascade bench accuracy`: run time against error for each solver over a
+// ladder of particle spacings (issue 7).
+//
+// Per solver (wcsph, dfsph) and spacing s:
+//  - dam break, Martin & Moyce (1952) n^2 = 2: a column a x W x 2a (a = 2.25 in,
+//    W = 4 s: a slab with free-slip side walls) in a tank 8a x W x 4a, run to
+//    kEndTime; the `front` probe (Probes.h surgeFront) against the surge-front
+//    table, Z = x/a at T = t sqrt(2g/a), and the `height` probe at the back wall
+//    against the residual-column table, H = h/(2a) at tau = t sqrt(g/a), each as
+//    the RMS of the relative error over the table points the run covers;
+//    wall_s is this run's wall time (set-up included);
+//  - hydrostatic tank: the same column in a tank of its own footprint, settled
+//    for kSettleTime; the floor pressure (Probes.h pressureAt) against rho g 2a
+//    and the compression mean(max(rho/rho_0 - 1, 0)) (average) and
+//    max(rho/rho_0 - 1) (maximum), all averaged (the maximum: maximal) over the
+//    samples of the last kSampleWindow.
+// Errors are fractions (0.03 = 3 %). Prints the table, and with --json writes it
+// and a log-log plot (gnuplot, pngcairo or png) of front error against wall
+// time, one line per solver, next to the JSON (or to --plot).
+//
+// Environment (for quick runs): CASCADE_ACCURACY_SOLVERS="wcsph,dfsph",
+// CASCADE_ACCURACY_RESOLUTIONS="8,12,18,27,36" (a / s, particles across the column).
 #include "Benchmarks.h"
 
 #include "libsph/Errors.h"
+#include "libsph/boundary/BoxBoundary.h"
+#include "libsph/probes/Probes.h"
+#include "libsph/solver/Simulation.h"
+#include "libsph/solver/TimeStepDFSPH.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <unistd.h>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
 
 namespace cascade::cli {
 
+namespace {
+
+constexpr double kA = 0.05715;           // m, Martin & Moyce column width a (2.25 in)
+constexpr int kSlabLayers = 4;           // particles across the slab (y)
+constexpr double kEndTime = 0.3;         // s: T = 5.5, tau = 3.9
+constexpr double kSampleInterval = 1e-3; // s between probe samples
+constexpr double kSettleTime = 0.4;      // s, hydrostatic tank
+constexpr double kSampleWindow = 0.1;    // s, hydrostatic averages over the end
+
+// Martin & Moyce (1952) Table 2, n^2 = 2: surge front (Z = x/a, T = t sqrt(2g/a)).
+// Source: /work/shared/validation/martin_moyce_1952_n2_2_surge_front_table.csv (T_ocellaris).
+const std::vector<std::pair<double, double>> kFrontTable = {
+    {0.41, 1.11}, {0.84, 1.22}, {1.19, 1.44}, {1.43, 1.67}, {1.63, 1.89}, {1.83, 2.11}, {1.98, 2.33}, {2.2, 2.56},
+    {2.32, 2.78}, {2.51, 3.0},  {2.65, 3.22}, {2.83, 3.44}, {2.98, 3.67}, {3.11, 3.89}, {3.33, 4.11}};
+// Martin & Moyce (1952) Table 6, n^2 = 2: residual column at the back wall (H = h/(2a), tau = t sqrt(g/a)).
+// Source: /work/shared/validation/martin_moyce_1952_n2_2_column_height_table.csv.
+const std::vector<std::pair<double, double>> kHeightTable = {
+    {0.56, 0.94}, {0.77, 0.89}, {0.93, 0.83}, {1.08, 0.78}, {1.28, 0.72}, {1.46, 0.67},
+    {1.66, 0.61}, {1.84, 0.56}, {2.0, 0.5},   {2.21, 0.44}, {2.45, 0.39}, {2.7, 0.33},
+    {3.06, 0.28}, {3.44, 0.22}, {4.2, 0.17},  {5.25, 0.11}, {7.4, 0.06}};
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+SimulationSettings settingsFor(const std::string& solver, double spacing) {
+  SimulationSettings settings;
+  settings.fluid.spacing = Real(spacing);
+  settings.solver.type = solver;
+  // Each solver at its usual CFL number: WCSPH's includes the speed of sound.
+  settings.solver.cflFactor = Real(solver == "dfsph" ? 0.5 : 0.4);
+  return settings;
+}
+
+/// Linear interpolation of a sampled series at t (NaN outside).
+double interpolate(const std::vector<std::pair<double, double>>& series, double t) {
+  for (std::size_t k = 1; k < series.size(); ++k)
+    if (series[k].first >= t) {
+      const auto& [t0, v0] = series[k - 1];
+      const auto& [t1, v1] = series[k];
+      const double w = t1 > t0 ? (t - t0) / (t1 - t0) : 1.0;
+      return v0 + w * (v1 - v0);
+    }
+  return std::nan("");
+}
+
+/// RMS of (sim - exp) / exp over the table rows (x in simulated-time units via scale).
+double rmsError(const std::vector<std::pair<double, double>>& table, double timeScale,
+                const std::vector<std::pair<double, double>>& series, int& points) {
+  double sum = 0;
+  points = 0;
+  for (const auto& [x, expected] : table) {
+    const double value = interpolate(series, x / timeScale);
+    if (!std::isfinite(value)) continue;
+    const double error = (value - expected) / expected;
+    sum += error * error;
+    ++points;
+  }
+  return points > 0 ? std::sqrt(sum / points) : std::nan("");
+}
+
+struct Row {
+  std::string solver;
+  double spacing = 0;
+  long long fluid = 0;
+  double wall = 0, frontRms = 0, heightRms = 0, pressureError = 0, densityAvg = 0, densityMax = 0;
+  double hydroWall = 0, steps = 0, msPerStep = 0;
+};
+
+void runDamBreak(Row& row) {
+  const auto start = Clock::now();
+  const double s = row.spacing, width = s * kSlabLayers;
+  Simulation sim(settingsFor(row.solver, s));
+  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(Real(8 * kA), Real(width), Real(4 * kA))));
+  row.fluid = static_cast<long long>(sim.addFluidBox(Vec3r(0, 0, 0), Vec3r(Real(kA), Real(width), Real(2 * kA))));
+  std::vector<std::pair<double, double>> front, height;
+  auto sample = [&] {
+    const auto& positions = sim.particles().position;
+    front.emplace_back(sim.time(), surgeFront(positions, Vec3r::UnitX(), Real(s)) / kA);
+    height.emplace_back(sim.time(), waterHeight(positions, 0.003, 0.5 * width, Real(s)) / (2 * kA));
+  };
+  sample();
+  double next = kSampleInterval;
+  while (sim.time() < kEndTime) {
+    sim.step();
+    if (sim.time() >= next - 1e-12) {
+      sample();
+      next = (std::floor(sim.time() / kSampleInterval + 1e-9) + 1) * kSampleInterval;
+    }
+  }
+  row.wall = secondsSince(start);
+  row.steps = double(sim.stepCount());
+  row.msPerStep = 1e3 * row.wall / row.steps;
+  int frontPoints = 0, heightPoints = 0;
+  row.frontRms = rmsError(kFrontTable, std::sqrt(2 * kStandardGravity / kA), front, frontPoints);
+  row.heightRms = rmsError(kHeightTable, std::sqrt(kStandardGravity / kA), height, heightPoints);
+}
+
+void runHydrostatic(Row& row) {
+  const auto start = Clock::now();
+  const double s = row.spacing, width = s * kSlabLayers;
+  Simulation sim(settingsFor(row.solver, s));
+  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(Real(kA), Real(width), Real(4 * kA))));
+  sim.addFluidBox(Vec3r(0, 0, 0), Vec3r(Real(kA), Real(width), Real(2 * kA)));
+  const double restDensity = sim.settings().fluid.restDensity;
+  const double expected = restDensity * kStandardGravity * 2 * kA;  // rho g H
+  const Vec3r floorPoint(Real(0.5 * kA), Real(0.5 * width), 0);
+  double pressureSum = 0, averageSum = 0, maxCompression = 0;
+  int samples = 0;
+  double next = kSettleTime - kSampleWindow;
+  while (sim.time() < kSettleTime) {
+    sim.step();
+    if (sim.time() >= next) {
+      const Particles& p = sim.particles();
+      pressureSum += pressureAt(p, floorPoint, sim.supportRadius(), sim.settings().solver.gravity);
+      double compression = 0;
+      for (Real rho : p.density) {
+        const double c = double(rho) / restDensity - 1.0;
+        compression += std::max(c, 0.0);
+        maxCompression = std::max(maxCompression, c);
+      }
+      averageSum += compression / double(p.size());
+      ++samples;
+      next += kSampleInterval;
+    }
+  }
+  row.pressureError = std::abs(pressureSum / samples - expected) / expected;
+  row.densityAvg = averageSum / samples;
+  row.densityMax = maxCompression;
+  row.hydroWall = secondsSince(start);
+}
+
+std::vector<std::string> listFromEnvironment(const char* name, std::vector<std::string> fallback) {
+  const char* value = std::getenv(name);
+  if (!value || !*value) return fallback;
+  std::vector<std::string> items;
+  std::stringstream stream(value);
+  std::string item;
+  while (std::getline(stream, item, ','))
+    if (!item.empty()) items.push_back(item);
+  return items;
+}
+
+/// gnuplot: log-log front RMS error against wall time, one line per solver.
+void writePlot(const std::vector<Row>& rows, const std::filesystem::path& png) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("cascade_accuracy_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::map<std::string, std::vector<const Row*>> bySolver;
+  for (const Row& r : rows) bySolver[r.solver].push_back(&r);
+  std::ostringstream plot;
+  const std::filesystem::path temp = png.string() + ".tmp.png";
+  // pngcairo if this gnuplot has it, else the libgd png terminal.
+  plot << "if (strstrt(GPVAL_TERMINALS, 'pngcairo') > 0) { set terminal pngcairo size 900,650 enhanced font 'sans,11' }"
+          " else { set terminal png size 900,650 }\n"
+       << "set output '" << temp.string() << "'\n"
+       << "set logscale xy\nset grid xtics ytics mxtics mytics\n"
+       << "set xlabel 'wall time of the dam-break run (s)'\nset ylabel 'error (fraction)'\n"
+       << "set title 'Cascade: dam break (Martin & Moyce n^2 = 2) error against run time'\n"
+       << "set key top right\nplot ";
+  bool first = true;
+  int style = 1;
+  for (const auto& [solver, list] : bySolver) {
+    const std::filesystem::path data = dir / (solver + ".dat");
+    std::ofstream out(data);
+    out << "# wall_s front_rms height_rms spacing\n";
+    for (const Row* r : list) out << r->wall << ' ' << r->frontRms << ' ' << r->heightRms << ' ' << r->spacing << '\n';
+    out.close();
+    if (!first) plot << ", ";
+    plot << "'" << data.string() << "' using 1:2 with linespoints lw 2 pt 7 lc " << style << " title '" << solver
+         << " front RMS', '' using 1:3 with linespoints dt 2 pt 6 lc " << style << " title '" << solver
+         << " column height RMS'";
+    first = false;
+    ++style;
+  }
+  plot << "\n";
+  const std::filesystem::path script = dir / "plot.gp";
+  std::ofstream(script) << plot.str();
+  const std::string command = "gnuplot '" + script.string() + "' 2>'" + (dir / "gnuplot.log").string() + "'";
+  const int status = std::system(command.c_str());
+  if (status != 0 || !std::filesystem::exists(temp)) {
+    std::ifstream log(dir / "gnuplot.log");
+    std::string line;
+    std::getline(log, line);
+    std::filesystem::remove_all(dir);
+    throw std::runtime_error(png.string() + ": gnuplot failed (" + line + ")");
+  }
+  std::filesystem::rename(temp, png);  // whole or not at all
+  std::filesystem::remove_all(dir);
+}
+
+} // namespace
+
 BenchTable benchAccuracy() {
-  throw NotImplementedError("bench accuracy: not implemented yet (issue #7)");
+  const std::vector<std::string> solvers = listFromEnvironment("CASCADE_ACCURACY_SOLVERS", {"wcsph", "dfsph"});
+  const std::vector<std::string> resolutions =
+      listFromEnvironment("CASCADE_ACCURACY_RESOLUTIONS", {"8", "12", "18", "27", "36"});
+  std::vector<Row> rows;
+  for (const std::string& solver : solvers) {
+    if (solver != "wcsph" && solver != "dfsph") throw InputError("CASCADE_ACCURACY_SOLVERS: unknown solver '" + solver + "'");
+    for (const std::string& resolution : resolutions) {
+      const double across = std::stod(resolution);
+      if (!(across >= 2 && across <= 400)) throw InputError("CASCADE_ACCURACY_RESOLUTIONS: a / s must be in [2, 400]");
+      Row row;
+      row.solver = solver;
+      row.spacing = kA / across;
+      runDamBreak(row);
+      runHydrostatic(row);
+      std::fprintf(stderr,
+                   "bench accuracy: %s a/s = %g (s = %.5g m, %lld particles): dam break %.1f s wall, %.0f steps, "
+                   "%.2f ms/step, front RMS %.2f %%, height RMS %.2f %%; tank %.1f s wall, floor pressure %.2f %%, "
+                   "compression avg %.4f %% max %.3f %%\n",
+                   solver.c_str(), across, row.spacing, row.fluid, row.wall, row.steps, row.msPerStep,
+                   100 * row.frontRms, 100 * row.heightRms, row.hydroWall, 100 * row.pressureError,
+                   100 * row.densityAvg, 100 * row.densityMax);
+      rows.push_back(row);
+    }
+  }
+  BenchTable table("accuracy", {"solver", "spacing", "n_fluid", "wall_s", "front_rms", "height_rms", "pressure_err",
+                                "density_err_avg", "density_err_max"});
+  for (const Row& r : rows)
+    table.addRow({r.solver, r.spacing, r.fluid, r.wall, r.frontRms, r.heightRms, r.pressureError, r.densityAvg,
+                  r.densityMax});
+  const BenchPaths& paths = benchPaths();
+  std::filesystem::path png;
+  if (!paths.plot.empty())
+    png = paths.plot;
+  else if (!paths.json.empty())
+    png = std::filesystem::path(paths.json).replace_extension(".png");
+  if (!png.empty()) {
+    writePlot(rows, png);
+    std::fprintf(stderr, "bench accuracy: plot written to %s\n", png.string().c_str());
+  }
+  return table;
 }
 
 } // namespace cascade::cli

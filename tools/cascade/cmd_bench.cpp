@@ -9,10 +9,16 @@
 
 namespace cascade::cli {
 
+BenchPaths& benchPaths() {
+  static BenchPaths paths;
+  return paths;
+}
+
 void addBenchCommand(CLI::App& app) {
   struct Options {
     std::string kind;
     std::string json;
+    std::string plot;
   };
   auto options = std::make_shared<Options>();
   CLI::App* bench = app.add_subcommand("bench", "Run a benchmark and print its table");
@@ -20,10 +26,12 @@ void addBenchCommand(CLI::App& app) {
       ->required()
       ->check(CLI::IsMember({"neighbors", "step", "accuracy", "surface", "render"}));
   bench->add_option("--json", options->json, "Also write the table as JSON to FILE");
+  bench->add_option("--plot", options->plot, "accuracy: write the error/run-time plot (PNG) to FILE (default: next to --json)");
   bench->callback([options] {
     static const std::map<std::string, BenchTable (*)()> kinds = {
         {"neighbors", benchNeighbors}, {"step", benchStep}, {"accuracy", benchAccuracy},
         {"surface", benchSurface},     {"render", benchRender}};
+    benchPaths() = BenchPaths{options->json, options->plot};
     const BenchTable table = kinds.at(options->kind)();
     std::cout << table.format() << std::flush;
     if (!options->json.empty()) table.writeJson(options->json);
