@@ -189,6 +189,10 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
     record["boundary_particles"] = simulation.boundaryParticleCount();
     record["removed"] = simulation.removedCount() + state.killed;
     record["resumed_after"] = result.resumedAfter;
+    // Solver phases of this run (ms), Simulation::timings().
+    const StepTimings& t = simulation.timings();
+    record["phase_ms"] = {{"neighbors", t.neighbors}, {"density", t.density}, {"forces", t.forces},
+                          {"boundary", t.boundary}, {"integrate", t.integrate}};
     if (!error.empty()) record["error"] = error;
     recordStage(layout.manifest(), scene.name, "bake", record);
   };

@@ -40,8 +40,8 @@ void Progress::update(int frame, int frameCount, double simTime, double endTime,
   const double simulated = simTime - mStartSimTime;
   const double eta = simulated > 0 ? (endTime - simTime) * elapsed / simulated : NAN;
   char line[256];
-  std::snprintf(line, sizeof line, "frame %d/%d  t=%.3f/%.3f s  %.0f steps/s  %zu particles  ETA %s",
-                frame, frameCount, simTime, endTime, stepsPerSecond, particles,
+  std::snprintf(line, sizeof line, "frame %d/%d  t=%.3f/%.3f s  %.*f steps/s  %zu particles  ETA %s",
+                frame, frameCount, simTime, endTime, stepsPerSecond < 10 ? 2 : 0, stepsPerSecond, particles,
                 formatDuration(eta).c_str());
   if (mTerminal) {
     *mStream << "\r" << line << "\x1b[K" << std::flush;
