@@ -26,7 +26,11 @@ double millisecondsSince(Clock::time_point start) {
 }
 
 constexpr Real kWarmStartFactor = Real(0.5);     // B&K 2017 / SPlisHSPlasH: half the last stiffness
-constexpr int kMinDensityIterations = 2;         // SPlisHSPlasH's minimum for the constant-density solve
+constexpr int kMinDensityIterations = 2;
+// A step removes at most this much of a compression already there (particles
+// started overlapping, or pushed together by an external impulse): they part
+// over several steps instead of at error * spacing / dt.
+constexpr Real kMaxErrorPerStep = Real(0.02);         // SPlisHSPlasH's minimum for the constant-density solve
 constexpr std::uint32_t kMinDivergenceNeighbors = 20;  // B&K 2017: no divergence solve at the surface
 constexpr std::size_t kChunk = 1024;
 constexpr std::uint32_t kNotInLayer = ~std::uint32_t(0);             // fixed chunks: order-independent (deterministic) sums
@@ -341,7 +345,8 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   if (!shortStep) mRegularStep = dt;
   // Predicted relative compression rho*/rho_0 - 1 >= 0.
   auto densityResidual = [&](std::size_t i) -> double {
-    const Real r = std::max(errorShare * (mDensityRatio[i] - Real(1)) + dt * densityRate(i), Real(0));
+    const Real existing = std::min(errorShare * (mDensityRatio[i] - Real(1)), kMaxErrorPerStep);
+    const Real r = std::max(existing + dt * densityRate(i), Real(0));
     mResidual[i] = r;
     return r;
   };

@@ -45,7 +45,8 @@
 /// non-pressure acceleration (the Jacobi solves go unstable from about 0.09).
 /// A step much shorter than that (landing on a frame or probe time) removes
 /// only its share of the density error already there and keeps the warm starts.
-/// Robustness: alpha_i is 0 for a particle with nearly no neighbours (not 1/0);
+/// Robustness: a step removes at most 2 % of a compression already there (so
+/// overlapping particles part over several steps); alpha_i is 0 for a particle with nearly no neighbours (not 1/0);
 /// the divergence solve skips particles with fewer than 20 neighbours (free
 /// surface, B&K 2017); sums are taken in fixed chunks (bit-identical restarts).
 #pragma once
