@@ -3,7 +3,6 @@
 #include "libsph/Errors.h"
 #include "libsph/Kernels.h"
 #include "libsph/io/AtomicFile.h"
-#include "libsph/search/UniformGridSearch.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -116,9 +115,8 @@ Simulation::Simulation(const SimulationSettings& settings) : mSettings(settings)
   }
   try {
     mSearch = makeNeighborSearch(mSettings.solver.neighborSearch);
-    // Exact restarts need the same neighbour order as an uninterrupted run; the
-    // grid's incremental rebuild orders a cell's points by history, so rebuild fully.
-    if (auto* grid = dynamic_cast<search::UniformGridSearch*>(mSearch.get())) grid->setIncrementalBuild(false);
+    // Exact restarts need the same neighbour order as an uninterrupted run: the
+    // grid's incremental rebuild keeps a canonical order within cells, so it may stay on.
   } catch (const std::invalid_argument&) {
     throw InputError("settings: solver.neighbor_search: unknown method '" + mSettings.solver.neighborSearch + "'");
   }
