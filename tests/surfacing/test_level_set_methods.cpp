@@ -48,6 +48,8 @@ struct MethodCase {
   double radiusTolerance;  // in voxels
 };
 
+void PrintTo(const MethodCase& c, std::ostream* os) { *os << surfaceMethodName(c.method); }
+
 class BallTest : public ::testing::TestWithParam<MethodCase> {};
 
 TEST_P(BallTest, ZeroCrossingAtVolumeRadius) {

@@ -41,6 +41,8 @@ struct BallCase {
   double tolerance;  // relative, on volume and area
 };
 
+void PrintTo(const BallCase& c, std::ostream* os) { *os << surfaceMethodName(c.method); }
+
 class BallMeshTest : public ::testing::TestWithParam<BallCase> {};
 
 TEST_P(BallMeshTest, ClosedOutwardManifoldWithBallVolumeAndArea) {
