@@ -20,9 +20,11 @@
 /// independent and run in parallel (TBB), each parallel inside; the output
 /// depends only on the input and the options.
 ///
-/// Axes: files are written in the scene's own z-up world coordinates (the
-/// VDB's transform and the OBJ's vertices are the scene's metres); see
-/// `SurfaceOptions::objYUp` for OBJ files meant for y-up importers.
+/// Axes (scenes are z-up): the OBJ is written y-up by default, a scene point
+/// (x, y, z) stored as (x, z, -y) with a "# up: y" header line, so Blender's and
+/// Houdini's default OBJ imports show it upright (objYUp = false keeps scene
+/// axes, "# up: z"); the VDB keeps the scene's z-up coordinates by default,
+/// which Blender shows upright (vdbYUp = true rotates its transform for Houdini).
 ///
 /// This header has no OpenVDB or CGAL includes, so any stage can call it.
 #pragma once
