@@ -145,8 +145,11 @@ void computeFluidAcceleration(StepContext& c) {
   // 1 / rho once per particle, so the pair loop has one division (and one sqrt).
   static thread_local std::vector<Real> inverseDensity;
   inverseDensity.resize(n);
+  // The calling thread's buffer: inside the lambda `inverseDensity` would name
+  // each TBB worker's own (empty) thread_local vector.
+  Real* const inverseDensityOut = inverseDensity.data();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) inverseDensity[i] = Real(1) / particles.density[i];
+    for (std::size_t i = range.begin(); i != range.end(); ++i) inverseDensityOut[i] = Real(1) / particles.density[i];
   });
   const Real h = terms.spiky.supportRadius, h2 = terms.supportRadius2;
   const Real gradientCoeff = terms.spiky.gradientCoeff;
