@@ -199,14 +199,14 @@ void checkBunny(const std::string& path) {
 TEST(MeshBoundary, BunnySimplifiesTo900ClosedTriangles) {
   // The scene's asset: the closed full-resolution scan.
   const std::string path = std::string(CASCADE_SOURCE_DIR) + "/scenes/assets/bunny_full.obj";
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " missing";
+  ASSERT_TRUE(std::filesystem::exists(path)) << path << " missing";
   checkBunny(path);
 }
 
 TEST(MeshBoundary, BunnyWithHolesIsClosedThenSimplified) {
   // The 3,851-triangle scan has holes in its base and cracks: filled, then simplified.
-  const std::string path = std::string(CASCADE_SOURCE_DIR) + "/../shared/assets/bunny_res3.ply";
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " missing";
+  const std::string path = std::string(CASCADE_SOURCE_DIR) + "/tests/solver/data/bunny_res3.ply";
+  ASSERT_TRUE(std::filesystem::exists(path)) << path << " missing";
   checkBunny(path);
 }
 
