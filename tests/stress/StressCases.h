@@ -152,9 +152,9 @@ inline Outcome thinSheet(const std::string& solver, double endTime) {
   return run(sim, 0, endTime, {&sim.boundary(0)});
 }
 
-/// A jet at `speed` into the bunny (0.2 m, 900 triangles) in a tank; no particle may end inside it.
+/// A jet at `speed` into the bunny (scenes/assets/bunny_full.obj, 0.2 m, 900 triangles) in a tank; no particle may end inside it.
 inline Outcome jetIntoBunny(const std::string& solver, double speed, double endTime) {
-  const std::string path = std::string(CASCADE_SOURCE_DIR) + "/scenes/assets/bunny_res3.ply";
+  const std::string path = std::string(CASCADE_SOURCE_DIR) + "/scenes/assets/bunny_full.obj";
   const Real s = Real(0.01);
   SimulationSettings settings = baseSettings(solver, s);
   settings.solver.expectedSpeed = Real(speed);
@@ -165,9 +165,9 @@ inline Outcome jetIntoBunny(const std::string& solver, double speed, double endT
   sim.addBoundary(BoxBoundary::tank(Vec3r(-0.4, -0.25, 0), Vec3r(0.4, 0.25, 1.0)));
   MeshObstacleOptions options;
   options.targetTriangles = 900;
-  options.transform.scale = Real(2.0);
-  options.transform.rotation = Transform::rotationFromEulerDegrees(Vec3r(90, 0, 0));
-  options.transform.translation = Vec3r(0.1, 0, -0.075);
+  options.transform.scale = Real(0.1);  // the file spans [-1, 1]: a 0.2 m bunny, resting on the floor
+  options.transform.rotation = Transform::rotationFromEulerDegrees(Vec3r(90, 0, 0));  // y up -> z up
+  options.transform.translation = Vec3r(0.1, 0, 0.1);
   sim.addBoundary(MeshBoundary::load(path, options));
   // A 6 cm x 6 cm x 10 cm slug of water at the speed, aimed at the body.
   sim.addFluidBox(Vec3r(-0.35, -0.03, 0.06), Vec3r(-0.25, 0.03, 0.12), Vec3r(Real(speed), 0, 0));
