@@ -26,7 +26,7 @@ TEST_P(StressQuick, OverlappingParticles) {
 INSTANTIATE_TEST_SUITE_P(Solvers, StressQuick, ::testing::Values("wcsph", "dfsph"));
 
 // End to end: a dam break whose instability threshold is set below the speeds
-// it reaches (expected speed 0.5 m/s, factor 2: stop above 1 m/s, reached after
+// it reaches (expected speed 0.25 m/s, factor 2: stop above 0.5 m/s, reached after
 // about 0.1 s) must stop with exit status 3 and a message naming particle,
 // position and time, and keep the frames written before.
 TEST(StressBake, UnstableBakeExitsThreeAndKeepsEarlierFrames) {
@@ -37,7 +37,7 @@ TEST(StressBake, UnstableBakeExitsThreeAndKeepsEarlierFrames) {
   const std::string scene = std::string(CASCADE_SOURCE_DIR) + "/scenes/dambreak.json";
   const std::string log = (out.string() + ".log");
   const std::string command = "'" + binary + "' bake '" + scene + "' -o '" + out.string() +
-                              "' --set fluid.spacing=0.007 --set solver.expected_speed=0.5"
+                              "' --set fluid.spacing=0.007 --set solver.type=dfsph --set solver.expected_speed=0.25"
                               " --set solver.instability_speed_factor=2 > '" + log + "' 2>&1";
   const int status = std::system(command.c_str());
   ASSERT_TRUE(WIFEXITED(status));
