@@ -20,8 +20,9 @@ AnisotropicKernels computeAnisotropicKernels(const ParticleGrid& grid,
   const double neighborRadius = settings.neighborRadius * s;
   const double support = settings.supportRadius * s;
   const double volume = s * s * s;
-  // A full lattice neighbourhood within 2.1 spacings has 32 neighbours.
-  const double fullCount = 4.0 / 3.0 * kPi * std::pow(settings.neighborRadius, 3) * 0.82;
+  // A full lattice neighbourhood within 2.1 spacings has 32 neighbours; "interior"
+  // asks for 70 % of the continuum count (27) and a nearly centred neighbourhood.
+  const double fullCount = 4.0 / 3.0 * kPi * std::pow(settings.neighborRadius, 3) * 0.7;
 
   AnisotropicKernels kernels;
   kernels.center.resize(n);
@@ -96,7 +97,7 @@ AnisotropicKernels computeAnisotropicKernels(const ParticleGrid& grid,
         kernels.weight[i] = float(volume * G.determinant() * kKernelNormalization);
         kernels.halfExtent[i] = half.cast<float>();
         kernels.interior[i] =
-            count >= fullCount && mean.norm() < 0.1 * s ? std::uint8_t(1) : std::uint8_t(0);
+            count >= fullCount && mean.norm() < 0.15 * s ? std::uint8_t(1) : std::uint8_t(0);
       }
     }
   });
