@@ -204,7 +204,7 @@ void writePlot(const std::vector<Row>& rows, const std::filesystem::path& png) {
        << "set output '" << temp.string() << "'\n"
        << "set logscale xy\nset grid xtics ytics mxtics mytics\n"
        << "set xlabel 'wall time of the dam-break run (s)'\nset ylabel 'error (fraction)'\n"
-       << "set title 'Cascade: dam break (Martin & Moyce n^2 = 2) error against run time'\n"
+       << "set title 'Cascade: dam break (Martin and Moyce, n^2 = 2) error against run time'\n"
        << "set key top right\nplot ";
   bool first = true;
   int style = 1;
