@@ -52,6 +52,9 @@ public:
   ParticleId addParticle(const Vec3r& position, const Vec3r& velocity);
   /// Fills [lo, hi] with particles on the lattice of the fluid spacing (first
   /// particle half a spacing inside each face); returns the number added.
+  /// With SolverSettings::hydrostaticStart (WCSPH) and the box resting on a
+  /// boundary, the lattice is compressed along gravity to the hydrostatic
+  /// density when the simulation starts (the stiffness is known then).
   std::size_t addFluidBox(const Vec3r& lo, const Vec3r& hi, const Vec3r& velocity = Vec3r::Zero());
 
   // --- running ---
@@ -118,6 +121,12 @@ public:
 
 private:
   void start();
+  /// A fluid box waiting for its hydrostatic compression (particles [first, first + count)).
+  struct FluidBoxRecord {
+    std::size_t first = 0, count = 0;
+  };
+  void compressHydrostatically(const FluidBoxRecord& box);
+  std::vector<FluidBoxRecord> mPendingBoxes;
   void reorder();
   void removeOutside();
   void checkStability() const;

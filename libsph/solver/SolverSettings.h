@@ -55,6 +55,17 @@ struct SolverSettings {
   bool clampNegativePressure = true;  ///< p = max(p, 0): no tensile pull at the free surface
   /// Monaghan (1992) artificial viscosity alpha, added to SEED (6) for stability; 0 = off.
   Real artificialViscosity = Real(0.1);
+  /// Hydrostatic initial state (WCSPH only): a fluid box resting on a boundary
+  /// (addFluidBox) starts with the density of hydrostatic equilibrium,
+  /// rho(d) = rho_0 (1 + |g| d / k) (linear EOS; Tait: rho_0 (1 + gamma |g| d / k)^(1/gamma)),
+  /// made by compressing its lattice along gravity, as in Monaghan (1994)
+  /// "Simulating free surface flows with SPH", J. Comput. Phys. 110, section 4
+  /// (particles start with the hydrostatic density). Off, the box starts at
+  /// rest density and zero pressure: it falls onto the floor and rings in its
+  /// acoustic quarter-wave mode with speeds up to about |g| H / c (7 % of
+  /// sqrt(|g| H) at the default c = 10 sqrt(2 |g| H)), which artificial
+  /// viscosity damps only slowly.
+  bool hydrostaticStart = true;
 
   /// The largest speed the scene is expected to produce, m/s. 0: the free-fall
   /// speed sqrt(2 |g| H) over the height H from the lowest boundary (or fluid)
