@@ -38,6 +38,17 @@ inline std::unique_ptr<Simulation> makeDamBreak(const SimulationSettings& settin
   return sim;
 }
 
+/// A resting water column side x side x height (spacing `spacing`) in a tank
+/// twice as tall, default solver settings.
+inline std::unique_ptr<Simulation> makeRestingTank(double side, double height, double spacing) {
+  SimulationSettings settings;
+  settings.fluid.spacing = Real(spacing);
+  auto sim = std::make_unique<Simulation>(settings);
+  sim->addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(Real(side), Real(side), Real(2 * height))));
+  sim->addFluidBox(Vec3r(0, 0, 0), Vec3r(Real(side), Real(side), Real(height)));
+  return sim;
+}
+
 /// Rows of a CSV file with '#' comments and one header line.
 inline std::vector<std::vector<std::string>> readCsv(const std::string& path) {
   std::ifstream in(path);
