@@ -1,5 +1,6 @@
 #include "libsph/search/OctreeSearch.h"
 
+#include "libsph/search/Lattice.h"
 #include "libsph/search/MortonCode.h"
 #include "libsph/search/RadixSort.h"
 #include "libsph/search/ScanRange.h"
@@ -25,41 +26,6 @@ constexpr double kRangeMargin = 1e-5;  // see UniformGridSearch.cpp: covers floa
 constexpr double kRangeSlack = 1e-20;
 /// Subtrees over at most this many points are built by one task.
 constexpr std::uint32_t kSerialBuild = 32768;
-
-struct Bounds {
-  double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
-                  std::numeric_limits<double>::infinity()};
-  double hi[3] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
-                  -std::numeric_limits<double>::infinity()};
-  void add(const Vec3r& p) {
-    if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z())) return;
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], double(p[a]));
-      hi[a] = std::max(hi[a], double(p[a]));
-    }
-  }
-  void join(const Bounds& other) {
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], other.lo[a]);
-      hi[a] = std::max(hi[a], other.hi[a]);
-    }
-  }
-  bool empty() const { return !(lo[0] <= hi[0]); }
-};
-
-/// floor(t) limited to [-1, 2^21]; NaN gives -1. Monotone in t.
-inline std::int64_t latticeFloor(double t) {
-  // floor without a libm call (baseline x86-64 has no roundsd): truncate, then
-  // step down for negative fractions; exact for the limited range.
-  if (!(t >= -1.0)) return -1;
-  if (t > double(kMaxLattice + 1)) return kMaxLattice + 1;
-  const std::int64_t truncated = static_cast<std::int64_t>(t);
-  return truncated - (t < double(truncated) ? 1 : 0);
-}
-
-inline std::uint32_t clampLattice(std::int64_t c) {
-  return static_cast<std::uint32_t>(std::clamp<std::int64_t>(c, 0, kMaxLattice));
-}
 
 /// Morton digit (3 bits) of `key` that picks the child of a level-`level` node.
 inline unsigned childDigit(std::uint64_t key, int level) {
@@ -130,13 +96,13 @@ void OctreeSearch::build(const Vec3r* points, std::size_t count, Real maxSupport
   mRadius = maxSupportRadius;
   mNodes.clear();
 
-  const Bounds bounds = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, count, 4096), Bounds{},
-      [&](const tbb::blocked_range<std::size_t>& range, Bounds local) {
+  const PointBounds bounds = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, count, 4096), PointBounds{},
+      [&](const tbb::blocked_range<std::size_t>& range, PointBounds local) {
         for (std::size_t i = range.begin(); i != range.end(); ++i) local.add(points[i]);
         return local;
       },
-      [](Bounds a, const Bounds& b) {
+      [](PointBounds a, const PointBounds& b) {
         a.join(b);
         return a;
       });
@@ -156,7 +122,7 @@ void OctreeSearch::build(const Vec3r* points, std::size_t count, Real maxSupport
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       std::uint32_t c[3];
       for (int a = 0; a < 3; ++a)
-        c[a] = clampLattice(latticeFloor((double(points[i][a]) - mOrigin[a]) * mScale));
+        c[a] = clampToLattice(latticeFloor((double(points[i][a]) - mOrigin[a]) * mScale));
       mKeys[i] = mortonEncode(c[0], c[1], c[2]);
     }
   });
@@ -365,7 +331,7 @@ void OctreeSearch::query(const Vec3r* queries, std::size_t count, const Real* su
       for (std::size_t i = range.begin(); i != range.end(); ++i) {
         std::uint32_t c[3];
         for (int a = 0; a < 3; ++a)
-          c[a] = clampLattice(latticeFloor((double(queries[i][a]) - mOrigin[a]) * mScale));
+          c[a] = clampToLattice(latticeFloor((double(queries[i][a]) - mOrigin[a]) * mScale));
         keys[i] = mortonEncode(c[0], c[1], c[2]);
       }
     });
@@ -440,8 +406,8 @@ void OctreeQuery::runChunk(std::uint32_t placeBegin, std::uint32_t placeEnd, Chu
       const std::int64_t low = latticeFloor((position[a] - reach - origin[a]) * scale);
       const std::int64_t high = latticeFloor((position[a] + reach - origin[a]) * scale);
       if (high < 0) query.empty = true;
-      query.lo[a] = clampLattice(low);
-      query.hi[a] = clampLattice(high);
+      query.lo[a] = clampToLattice(low);
+      query.hi[a] = clampToLattice(high);
     }
   };
   auto volume = [](const std::uint32_t lo[3], const std::uint32_t hi[3]) {

@@ -1,5 +1,6 @@
 #include "libsph/search/UniformGridSearch.h"
 
+#include "libsph/search/Lattice.h"
 #include "libsph/search/MortonCode.h"
 #include "libsph/search/ListAssembly.h"
 #include "libsph/search/RadixSort.h"
@@ -32,44 +33,6 @@ constexpr double kRangeMargin = 1e-5;
 constexpr double kRangeSlack = 1e-20;
 constexpr std::size_t kPad = kScanPadding;
 
-struct Bounds {
-  double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
-                  std::numeric_limits<double>::infinity()};
-  double hi[3] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
-                  -std::numeric_limits<double>::infinity()};
-  void add(const Vec3r& p) {
-    for (int a = 0; a < 3; ++a) {
-      const double v = p[a];
-      if (!std::isfinite(v)) return;
-    }
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], double(p[a]));
-      hi[a] = std::max(hi[a], double(p[a]));
-    }
-  }
-  void join(const Bounds& other) {
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], other.lo[a]);
-      hi[a] = std::max(hi[a], other.hi[a]);
-    }
-  }
-  bool empty() const { return !(lo[0] <= hi[0]); }
-};
-
-/// floor(t) limited to [-1, kMaxCell + 1]; NaN gives -1. Monotone in t.
-inline std::int64_t cellFloor(double t) {
-  // floor without a libm call (baseline x86-64 has no roundsd): truncate, then
-  // step down for negative fractions; exact for the limited range.
-  if (!(t >= -1.0)) return -1;
-  if (t > double(kMaxCell + 1)) return kMaxCell + 1;
-  const std::int64_t truncated = static_cast<std::int64_t>(t);
-  return truncated - (t < double(truncated) ? 1 : 0);
-}
-
-inline std::uint32_t clampCell(std::int64_t c) {
-  return static_cast<std::uint32_t>(std::clamp<std::int64_t>(c, 0, kMaxCell));
-}
-
 inline std::uint64_t hashKey(std::uint64_t key) { return key * 0x9E3779B97F4A7C15ULL; }
 
 struct CellRange {
@@ -79,13 +42,13 @@ struct CellRange {
 } // namespace
 
 void UniformGridSearch::computeFrame(const Vec3r* points, std::size_t count, Real maxSupportRadius) {
-  const Bounds bounds = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, count, 4096), Bounds{},
-      [&](const tbb::blocked_range<std::size_t>& range, Bounds local) {
+  const PointBounds bounds = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, count, 4096), PointBounds{},
+      [&](const tbb::blocked_range<std::size_t>& range, PointBounds local) {
         for (std::size_t i = range.begin(); i != range.end(); ++i) local.add(points[i]);
         return local;
       },
-      [](Bounds a, const Bounds& b) {
+      [](PointBounds a, const PointBounds& b) {
         a.join(b);
         return a;
       });
@@ -103,12 +66,12 @@ void UniformGridSearch::computeFrame(const Vec3r* points, std::size_t count, Rea
     // between builds (the incremental rebuild needs the same cells).
     mOrigin[a] = bounds.empty() ? 0.0 : cellSize * std::floor(bounds.lo[a] * mInvCellSize);
     if (!std::isfinite(mOrigin[a])) mOrigin[a] = 0;
-    mMaxCell[a] = bounds.empty() ? 0 : clampCell(cellFloor((bounds.hi[a] - mOrigin[a]) * mInvCellSize));
+    mMaxCell[a] = bounds.empty() ? 0 : clampToLattice(latticeFloor((bounds.hi[a] - mOrigin[a]) * mInvCellSize));
   }
   const double reach = std::fabs(double(maxSupportRadius)) * (1.0 + kRangeMargin) + kRangeSlack;
   mSelfStencilOk = reach < cellSize * (1.0 - 1e-9);
   for (int a = 0; a < 3 && !bounds.empty(); ++a)
-    if (cellFloor((bounds.hi[a] - mOrigin[a]) * mInvCellSize) > kMaxCell) mSelfStencilOk = false;
+    if (latticeFloor((bounds.hi[a] - mOrigin[a]) * mInvCellSize) > kMaxCell) mSelfStencilOk = false;
 }
 
 void UniformGridSearch::build(const Vec3r* points, std::size_t count, Real maxSupportRadius) {
@@ -154,7 +117,7 @@ void UniformGridSearch::sortPoints(const Vec3r* points, std::size_t count, bool 
       const Vec3r& p = points[i];
       std::uint32_t c[3];
       for (int a = 0; a < 3; ++a)
-        c[a] = clampCell(cellFloor((double(p[a]) - mOrigin[a]) * mInvCellSize));
+        c[a] = clampToLattice(latticeFloor((double(p[a]) - mOrigin[a]) * mInvCellSize));
       pointKey[i] = mortonEncode(c[0], c[1], c[2]);
     }
   });
@@ -434,9 +397,9 @@ struct GridQuery {
         std::int64_t lo[3], hi[3], own[3];
         bool empty = false, inStencil = true;
         for (int a = 0; a < 3; ++a) {
-          lo[a] = cellFloor((qpos[a] - reach - grid.mOrigin[a]) * grid.mInvCellSize);
-          hi[a] = cellFloor((qpos[a] + reach - grid.mOrigin[a]) * grid.mInvCellSize);
-          own[a] = cellFloor((qpos[a] - grid.mOrigin[a]) * grid.mInvCellSize);
+          lo[a] = latticeFloor((qpos[a] - reach - grid.mOrigin[a]) * grid.mInvCellSize);
+          hi[a] = latticeFloor((qpos[a] + reach - grid.mOrigin[a]) * grid.mInvCellSize);
+          own[a] = latticeFloor((qpos[a] - grid.mOrigin[a]) * grid.mInvCellSize);
           if (hi[a] < 0 || !(reach >= 0)) empty = true;
           if (own[a] != std::int64_t(c[a]) || lo[a] < own[a] - 1 || hi[a] > own[a] + 1)
             inStencil = false;
@@ -471,8 +434,8 @@ struct GridQuery {
         } else if (!empty) {
           std::uint32_t boxLo[3], boxHi[3];
           for (int a = 0; a < 3; ++a) {
-            boxLo[a] = clampCell(lo[a]);
-            boxHi[a] = std::min(clampCell(hi[a]), grid.mMaxCell[a]);
+            boxLo[a] = clampToLattice(lo[a]);
+            boxHi[a] = std::min(clampToLattice(hi[a]), grid.mMaxCell[a]);
             if (boxLo[a] > boxHi[a]) empty = true;
           }
           if (!empty)
@@ -534,7 +497,7 @@ void UniformGridSearch::query(const Vec3r* queries, std::size_t count, const Rea
         // Queries outside the occupied box group with its border cells (they
         // take the general path: their own cell is not the group's).
         for (int a = 0; a < 3; ++a)
-          c[a] = std::min(clampCell(cellFloor((double(queries[i][a]) - mOrigin[a]) * mInvCellSize)),
+          c[a] = std::min(clampToLattice(latticeFloor((double(queries[i][a]) - mOrigin[a]) * mInvCellSize)),
                           mMaxCell[a]);
         keys[i] = mortonEncode(c[0], c[1], c[2]);
       }
