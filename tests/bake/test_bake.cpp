@@ -155,8 +155,11 @@ TEST_F(Bake, SigintStopsAfterAStepAndResumes) {
   ASSERT_TRUE(waitForFile(layout.particles(2), pid, 120)) << readLog(out.string() + ".log");
   ::kill(pid, SIGINT);
   const int status = waitFor(pid);
-  if (status == 1) EXPECT_NE(readLog(out.string() + ".log").find("interrupted"), std::string::npos);
-  else EXPECT_EQ(status, 0);  // finished before the signal arrived
+  if (status == 1) {
+    EXPECT_NE(readLog(out.string() + ".log").find("interrupted"), std::string::npos);
+  } else {
+    EXPECT_EQ(status, 0);  // finished before the signal arrived
+  }
   ASSERT_EQ(run(bakeArgs(out), out.string() + ".resume.log"), 0);
   EXPECT_EQ(checksumOf(layout.particles(12)), checksumOf(OutputLayout(*reference).particles(12)));
   fs::remove_all(out);
