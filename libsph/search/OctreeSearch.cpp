@@ -167,19 +167,7 @@ void OctreeSearch::build(const Vec3r* points, std::size_t count, Real maxSupport
     });
   }
 
-  mX.resize(count + kScanPadding);
-  mY.resize(count + kScanPadding);
-  mZ.resize(count + kScanPadding);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 8192), [&](const auto& range) {
-    for (std::size_t k = range.begin(); k != range.end(); ++k) {
-      const Vec3r& p = points[mOrder[k]];
-      mX[k] = p.x();
-      mY[k] = p.y();
-      mZ[k] = p.z();
-    }
-  });
-  for (std::size_t k = count; k < count + kScanPadding; ++k)
-    mX[k] = mY[k] = mZ[k] = std::numeric_limits<Real>::quiet_NaN();
+  gatherScanPositions(points, mOrder, count, mX, mY, mZ);
   mOrder.resize(count + kScanPadding, kNoIndex);  // read (never reported) by the vector scans
   if (count == 0) return;
 

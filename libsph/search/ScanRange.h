@@ -17,6 +17,11 @@
 #include "libsph/NeighborSearch.h"
 
 #include <cstdint>
+#include <limits>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #if (defined(__x86_64__) || defined(__i386__)) && defined(__SSE2__) && !defined(CASCADE_DOUBLE) && \
     (defined(__GNUC__) || defined(__clang__))
@@ -29,6 +34,27 @@ namespace cascade::search {
 /// Arrays read by a scan (positions, and the order array) must have this many
 /// readable elements past the last point (vector loads read whole groups).
 constexpr std::size_t kScanPadding = 16;
+
+/// Gathers points[order[k]] into the coordinate arrays x, y, z (k < count),
+/// followed by kScanPadding NaN entries so that vector loads may read past a
+/// range without ever matching.
+inline void gatherScanPositions(const Vec3r* points, const std::vector<std::uint32_t>& order,
+                                std::size_t count, std::vector<Real>& x, std::vector<Real>& y,
+                                std::vector<Real>& z) {
+  x.resize(count + kScanPadding);
+  y.resize(count + kScanPadding);
+  z.resize(count + kScanPadding);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 8192), [&](const auto& range) {
+    for (std::size_t k = range.begin(); k != range.end(); ++k) {
+      const Vec3r& p = points[order[k]];
+      x[k] = p.x();
+      y[k] = p.y();
+      z[k] = p.z();
+    }
+  });
+  for (std::size_t k = count; k < count + kScanPadding; ++k)
+    x[k] = y[k] = z[k] = std::numeric_limits<Real>::quiet_NaN();
+}
 /// A scan may write this many entries past the neighbours it reports.
 constexpr std::size_t kScanOverwrite = 8;
 

@@ -89,19 +89,7 @@ void UniformGridSearch::build(const Vec3r* points, std::size_t count, Real maxSu
   mHaveFrame = true;
 
   // Positions in curve order, padded so that vector loads may read past a range.
-  mX.resize(count + kPad);
-  mY.resize(count + kPad);
-  mZ.resize(count + kPad);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 8192), [&](const auto& range) {
-    for (std::size_t k = range.begin(); k != range.end(); ++k) {
-      const Vec3r& p = points[mOrder[k]];
-      mX[k] = p.x();
-      mY[k] = p.y();
-      mZ[k] = p.z();
-    }
-  });
-  for (std::size_t k = count; k < count + kPad; ++k)
-    mX[k] = mY[k] = mZ[k] = std::numeric_limits<Real>::quiet_NaN();
+  gatherScanPositions(points, mOrder, count, mX, mY, mZ);
   buildCells();
   // Padding read (never reported) by the vector scans.
   mOrder.resize(count + kPad, kNoIndex);
