@@ -177,6 +177,8 @@ struct PreviewRenderer::Impl {
   GLuint depthTexture(int w, int h, bool compare);
   void createTargets();
   void checkFramebuffer(const char* what);
+  /// A framebuffer with only `depth` attached (no colour), checked; `what` names it in errors.
+  GLuint depthOnlyFramebuffer(GLuint depth, const char* what);
   void uploadFluid(const TriangleMesh& mesh, float& normalSign, bool& clockwise);
   void uploadSolids(const TriangleMesh& mesh);
   void uploadSpheres(const ParticleSpheres& particles);
@@ -372,22 +374,23 @@ void PreviewRenderer::Impl::checkFramebuffer(const char* what) {
                              [&] { char b[16]; std::snprintf(b, sizeof b, "%x", status); return std::string(b); }() + ")");
 }
 
+GLuint PreviewRenderer::Impl::depthOnlyFramebuffer(GLuint depth, const char* what) {
+  GLuint fbo = 0;
+  gl.glGenFramebuffers(1, &fbo);
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+  gl.glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, depth, 0);
+  gl.glDrawBuffer(GL_NONE);
+  gl.glReadBuffer(GL_NONE);
+  checkFramebuffer(what);
+  return fbo;
+}
+
 void PreviewRenderer::Impl::createTargets() {
   // Shadow map.
   shadowTexture = depthTexture(kShadowMapSize, kShadowMapSize, true);
-  gl.glGenFramebuffers(1, &shadowFbo);
-  gl.glBindFramebuffer(GL_FRAMEBUFFER, shadowFbo);
-  gl.glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, shadowTexture, 0);
-  gl.glDrawBuffer(GL_NONE);
-  gl.glReadBuffer(GL_NONE);
-  checkFramebuffer("shadow");
+  shadowFbo = depthOnlyFramebuffer(shadowTexture, "shadow");
   waterShadowTexture = depthTexture(kShadowMapSize, kShadowMapSize, true);
-  gl.glGenFramebuffers(1, &waterShadowFbo);
-  gl.glBindFramebuffer(GL_FRAMEBUFFER, waterShadowFbo);
-  gl.glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, waterShadowTexture, 0);
-  gl.glDrawBuffer(GL_NONE);
-  gl.glReadBuffer(GL_NONE);
-  checkFramebuffer("water shadow");
+  waterShadowFbo = depthOnlyFramebuffer(waterShadowTexture, "water shadow");
 
   // Multisampled HDR scene: 0 opaque colour (alpha = coverage), 1 water
   // normal and coverage, 2 water eye depth; and depth.
@@ -436,12 +439,7 @@ void PreviewRenderer::Impl::createTargets() {
 
   // The fluid's nearest back faces.
   backDepth = depthTexture(internalWidth, internalHeight, false);
-  gl.glGenFramebuffers(1, &backFbo);
-  gl.glBindFramebuffer(GL_FRAMEBUFFER, backFbo);
-  gl.glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, backDepth, 0);
-  gl.glDrawBuffer(GL_NONE);
-  gl.glReadBuffer(GL_NONE);
-  checkFramebuffer("back-face");
+  backFbo = depthOnlyFramebuffer(backDepth, "back-face");
 
   // Opaque image with the water composited; depth holds the water mask.
   compositeColor = colorTexture(GL_RGBA16F, internalWidth, internalHeight, false);

@@ -1,6 +1,8 @@
 #include "libsph/Errors.h"
 #include "libsph/io/ParticleCache.h"
 
+#include "TestTempDir.h"
+
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -8,15 +10,9 @@
 
 using namespace cascade;
 namespace fs = std::filesystem;
+using cascade::test::freshTempDir;
 
 namespace {
-
-fs::path freshDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("cascade_io_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 ParticleFrame randomFrame(std::size_t count, unsigned seed) {
   std::mt19937 rng(seed);
@@ -37,7 +33,7 @@ ParticleFrame randomFrame(std::size_t count, unsigned seed) {
 } // namespace
 
 TEST(ParticleCache, VdbRoundTripWithinCodecPrecision) {
-  const fs::path dir = freshDir("roundtrip");
+  const fs::path dir = freshTempDir("io_roundtrip");
   const ParticleFrame frame = randomFrame(5000, 1);
   const double voxelSize = 2.0 * frame.spacing;
   writeParticleFrame(dir / "particles.0001.vdb", frame);
@@ -75,7 +71,7 @@ TEST(ParticleCache, ChecksumFollowsIdsNotFileOrder) {
 TEST(ParticleCache, SameStateWritesTheSameChecksum) {
   // Resumed bakes are compared by the checksum of their caches: writing the
   // same particle state twice must read back to identical values.
-  const fs::path dir = freshDir("checksum");
+  const fs::path dir = freshTempDir("io_checksum");
   writeParticleFrame(dir / "a.vdb", randomFrame(777, 3));
   writeParticleFrame(dir / "b.vdb", randomFrame(777, 3));
   EXPECT_EQ(particleChecksum(readParticleFrame(dir / "b.vdb")),
@@ -84,7 +80,7 @@ TEST(ParticleCache, SameStateWritesTheSameChecksum) {
 }
 
 TEST(ParticleCache, EmptyFrameRoundTrips) {
-  const fs::path dir = freshDir("empty");
+  const fs::path dir = freshTempDir("io_empty");
   ParticleFrame empty;
   empty.spacing = 0.01f;
   writeParticleFrame(dir / "e.vdb", empty);
@@ -93,7 +89,7 @@ TEST(ParticleCache, EmptyFrameRoundTrips) {
 }
 
 TEST(ParticleCache, BadFilesAreInputErrorsNamingTheFile) {
-  const fs::path dir = freshDir("bad");
+  const fs::path dir = freshTempDir("io_bad");
   writeParticleFrame(dir / "good.vdb", randomFrame(2000, 4));
   const auto size = fs::file_size(dir / "good.vdb");
   fs::copy_file(dir / "good.vdb", dir / "truncated.vdb");
@@ -117,7 +113,7 @@ TEST(ParticleCache, BadFilesAreInputErrorsNamingTheFile) {
 }
 
 TEST(ParticleCache, PlyBinaryAndAsciiRead) {
-  const fs::path dir = freshDir("ply");
+  const fs::path dir = freshTempDir("io_ply");
   const ParticleFrame frame = randomFrame(321, 5);
   writeParticlePly(dir / "p.ply", frame);
   const ParticleFrame binary = readParticleFrame(dir / "p.ply");

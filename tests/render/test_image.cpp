@@ -4,6 +4,8 @@
 
 #include "libsph/Errors.h"
 
+#include "TestTempDir.h"
+
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -12,15 +14,9 @@
 using namespace cascade;
 using namespace cascade::render;
 namespace fs = std::filesystem;
+using cascade::test::freshTempDir;
 
 namespace {
-fs::path freshDir(const char* name) {
-  const fs::path dir = fs::temp_directory_path() / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
 Image noise(int width, int height, unsigned seed) {
   Image image(width, height);
   std::mt19937 random(seed);
@@ -30,7 +26,7 @@ Image noise(int width, int height, unsigned seed) {
 } // namespace
 
 TEST(Png, RoundTripKeepsEveryPixelAndTheText) {
-  const fs::path dir = freshDir("cascade_render_png");
+  const fs::path dir = freshTempDir("render_png");
   const Image image = noise(37, 23, 1);
   writePng(dir / "rgba.png", image, true, {{"cascade-render", "settings 1"}});
   PngText text;
@@ -56,7 +52,7 @@ TEST(Png, RoundTripKeepsEveryPixelAndTheText) {
 }
 
 TEST(Png, BrokenOrMissingFileIsInputErrorNamingIt) {
-  const fs::path dir = freshDir("cascade_render_png_bad");
+  const fs::path dir = freshTempDir("render_png_bad");
   writePng(dir / "whole.png", noise(64, 64, 2), false);
   std::string bytes;
   {

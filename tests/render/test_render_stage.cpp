@@ -8,6 +8,8 @@
 #include "libsph/io/TriangleMesh.h"
 #include "render/Image.h"
 
+#include "TestTempDir.h"
+
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -21,8 +23,7 @@ namespace fs = std::filesystem;
 namespace {
 
 fs::path freshOut(const char* name) {
-  const fs::path dir = fs::temp_directory_path() / name;
-  fs::remove_all(dir);
+  const fs::path dir = cascade::test::freshTempDir(name);
   fs::create_directories(dir / "mesh");
   return dir;
 }
@@ -59,7 +60,7 @@ std::string withHeader(const std::string& header, const fs::path& obj) {
 } // namespace
 
 TEST(RenderStage, RendersEveryMeshAndReportsTheBrokenOneByName) {
-  const fs::path out = freshOut("cascade_render_stage");
+  const fs::path out = freshOut("render_stage");
   writeScene(out);
   writeObj(out / "mesh" / "fluid.0001.obj", blob(0.3f));
   std::ofstream(out / "mesh" / "fluid.0002.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n";  // bad index
@@ -89,7 +90,7 @@ TEST(RenderStage, RendersEveryMeshAndReportsTheBrokenOneByName) {
 }
 
 TEST(RenderStage, EmptyMeshGivesAnEmptyFrameAndUpToDateFramesAreSkipped) {
-  const fs::path out = freshOut("cascade_render_empty");
+  const fs::path out = freshOut("render_empty");
   writeObj(out / "mesh" / "fluid.0001.obj", TriangleMesh{});
   writeObj(out / "mesh" / "fluid.0002.obj", blob(0.3f));
   RenderOptions options = smallOptions();
@@ -111,7 +112,7 @@ TEST(RenderStage, EmptyMeshGivesAnEmptyFrameAndUpToDateFramesAreSkipped) {
 }
 
 TEST(RenderStage, YUpMeshesAreDrawnUprightByTheirHeaderComment) {
-  const fs::path out = freshOut("cascade_render_axes");
+  const fs::path out = freshOut("render_axes");
   writeScene(out);
   TriangleMesh mesh = blob(0.3f);
   writeObj(out / "mesh" / "fluid.0001.obj", mesh);
@@ -140,7 +141,7 @@ TEST(RenderStage, YUpMeshesAreDrawnUprightByTheirHeaderComment) {
 }
 
 TEST(RenderStage, ParticlesContactSheetAndTurntable) {
-  const fs::path out = freshOut("cascade_render_particles");
+  const fs::path out = freshOut("render_particles");
   for (int frame = 1; frame <= 3; ++frame) {
     ParticleFrame particles;
     for (int i = 0; i < 6; ++i)
@@ -171,7 +172,7 @@ TEST(RenderStage, ParticlesContactSheetAndTurntable) {
 }
 
 TEST(RenderStage, NoMeshesIsBadInput) {
-  const fs::path out = freshOut("cascade_render_nothing");
+  const fs::path out = freshOut("render_nothing");
   EXPECT_THROW(renderOutput(out, smallOptions()), InputError);
   EXPECT_THROW(renderOutput(out / "missing", smallOptions()), InputError);
   fs::remove_all(out);
@@ -180,7 +181,7 @@ TEST(RenderStage, NoMeshesIsBadInput) {
 TEST(RenderCommand, BrokenMeshExitsTwoNamingTheFileAndOtherFramesRender) {
   const fs::path program = fs::path(CASCADE_BINARY_DIR) / "cascade";
   if (!fs::exists(program)) GTEST_SKIP() << "cascade not built";
-  const fs::path out = freshOut("cascade_render_command");
+  const fs::path out = freshOut("render_command");
   writeObj(out / "mesh" / "fluid.0001.obj", blob(0.3f));
   std::ofstream(out / "mesh" / "fluid.0002.obj") << "v 0 0 0\nf 1 2 3\n";
   const fs::path log = out / "stderr.txt";
@@ -198,7 +199,7 @@ TEST(RenderCommand, BrokenMeshExitsTwoNamingTheFileAndOtherFramesRender) {
 }
 
 TEST(RenderStage, BadSceneCameraIsBadInputNamingTheJsonPath) {
-  const fs::path out = freshOut("cascade_render_badscene");
+  const fs::path out = freshOut("render_badscene");
   writeObj(out / "mesh" / "fluid.0001.obj", blob(0.3f));
   std::ofstream(out / "scene.json") << R"({"camera": {"position": [0, 0], "target": [0, 0, 0]}})";
   try {
