@@ -14,6 +14,7 @@
 #pragma once
 
 #include "libsph/Types.h"
+#include "libsph/boundary/BoundarySampling.h"
 #include "libsph/io/TriangleMesh.h"
 
 #include <Eigen/Core>
@@ -64,6 +65,16 @@ public:
 
   /// Type I particles: points on the surface with no gap wider than maxGap.
   virtual void sampleSurface(Real maxGap, std::vector<Vec3r>& samples) const = 0;
+
+  /// The same type I particles, those on flat pieces as lattices (searched
+  /// without a search structure), the rest appended to `points`. The lattices'
+  /// points, appended in order, then `points` are sampleSurface()'s samples
+  /// (as a set). Default: all as points.
+  virtual void sampleSurfaceLattices(Real maxGap, std::vector<SampleLattice>& lattices,
+                                     std::vector<Vec3r>& points) const {
+    (void)lattices;
+    sampleSurface(maxGap, points);
+  }
 
   /// Type II: the mirror maps a fluid particle at x sees (surfaces closer than
   /// range = kappa h), appended to `maps` tagged with `boundaryIndex`.

@@ -5,18 +5,20 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace cascade {
 
-/// A dense cell grid over the static type I samples (cell edge >= the query
-/// radius), with a dilated occupancy flag so that particles far from every
-/// wall are rejected with one lookup.
+/// A dense cell grid over the type I samples that are not on a lattice (mesh
+/// obstacles; cell edge >= the query radius), with a dilated occupancy flag so
+/// that particles far from every such sample are rejected with one lookup.
+/// The samples themselves are stored in cell order, so a query reads each row
+/// of cells as one contiguous run.
 struct BoundaryParticles::Grid {
   Vec3r origin = Vec3r::Zero();
   Real cellSize = 1, inverseCellSize = 1;
   long dims[3] = {0, 0, 0};
   std::vector<std::uint32_t> cellStart;  // dims product + 1
-  std::vector<std::uint32_t> sorted;     // sample indices grouped by cell
   std::vector<char> nearOccupied;        // any sample in the 27 cells around
 
   long cellIndex(long x, long y, long z) const { return (z * dims[1] + y) * dims[0] + x; }
@@ -30,9 +32,10 @@ struct BoundaryParticles::Grid {
     return true;
   }
 
-  void build(const std::vector<Vec3r>& samples, Real radius) {
+  /// Sorts samples [base, end) (and their owners) into cell order and indexes them.
+  void build(std::vector<Vec3r>& samples, std::vector<std::uint32_t>& owners, std::size_t base, Real radius) {
     Vec3r lo = Vec3r::Constant(std::numeric_limits<Real>::max()), hi = -lo;
-    for (const Vec3r& p : samples) { lo = lo.cwiseMin(p); hi = hi.cwiseMax(p); }
+    for (std::size_t k = base; k < samples.size(); ++k) { lo = lo.cwiseMin(samples[k]); hi = hi.cwiseMax(samples[k]); }
     cellSize = radius;
     // Keep the dense grid below ~32 M cells.
     const Vec3r extent = hi - lo + Vec3r::Constant(2 * radius);
@@ -45,47 +48,64 @@ struct BoundaryParticles::Grid {
     for (int a = 0; a < 3; ++a)
       dims[a] = static_cast<long>(std::floor((hi[a] - origin[a]) * inverseCellSize)) + 2;
     const std::size_t cellCount = std::size_t(dims[0]) * dims[1] * dims[2];
-    std::vector<std::uint32_t> cellOfSample(samples.size());
+    const std::size_t count = samples.size() - base;
+    std::vector<std::uint32_t> cellOfSample(count);
     cellStart.assign(cellCount + 1, 0);
-    for (std::size_t k = 0; k < samples.size(); ++k) {
+    for (std::size_t k = 0; k < count; ++k) {
       long c[3] = {0, 0, 0};
-      cellOf(samples[k], c);
+      cellOf(samples[base + k], c);
       cellOfSample[k] = static_cast<std::uint32_t>(cellIndex(c[0], c[1], c[2]));
       ++cellStart[cellOfSample[k] + 1];
     }
+    cellStart[0] = static_cast<std::uint32_t>(base);  // indices into the whole sample array
     for (std::size_t c = 0; c < cellCount; ++c) cellStart[c + 1] += cellStart[c];
-    sorted.resize(samples.size());
+    // Counting sort (stable: within a cell, the sampling order).
+    std::vector<Vec3r> sortedSamples(count);
+    std::vector<std::uint32_t> sortedOwners(count);
     std::vector<std::uint32_t> fill(cellStart.begin(), cellStart.end() - 1);
-    for (std::size_t k = 0; k < samples.size(); ++k) sorted[fill[cellOfSample[k]]++] = std::uint32_t(k);
+    for (std::size_t k = 0; k < count; ++k) {
+      const std::uint32_t slot = fill[cellOfSample[k]]++ - static_cast<std::uint32_t>(base);
+      sortedSamples[slot] = samples[base + k];
+      sortedOwners[slot] = owners[base + k];
+    }
+    std::copy(sortedSamples.begin(), sortedSamples.end(), samples.begin() + std::ptrdiff_t(base));
+    std::copy(sortedOwners.begin(), sortedOwners.end(), owners.begin() + std::ptrdiff_t(base));
     nearOccupied.assign(cellCount, 0);
     tbb::parallel_for(long(0), dims[2], [&](long z) {
       for (long y = 0; y < dims[1]; ++y)
         for (long x = 0; x < dims[0]; ++x) {
           char any = 0;
           for (long dz = std::max(0L, z - 1); dz <= std::min(dims[2] - 1, z + 1) && !any; ++dz)
-            for (long dy = std::max(0L, y - 1); dy <= std::min(dims[1] - 1, y + 1) && !any; ++dy)
-              for (long dx = std::max(0L, x - 1); dx <= std::min(dims[0] - 1, x + 1); ++dx) {
-                const long c = cellIndex(dx, dy, dz);
-                if (cellStart[c + 1] > cellStart[c]) { any = 1; break; }
-              }
+            for (long dy = std::max(0L, y - 1); dy <= std::min(dims[1] - 1, y + 1) && !any; ++dy) {
+              const long row = cellIndex(0, dy, dz);
+              if (cellStart[row + std::min(dims[0] - 1, x + 1) + 1] > cellStart[row + std::max(0L, x - 1)]) any = 1;
+            }
           nearOccupied[cellIndex(x, y, z)] = any;
         }
     });
   }
 
+  /// Calls visit(k) for every sample k within `radius` (<= cellSize) of p.
   template <typename F>
-  void forEachWithin(const Vec3r& p, Real radius2, const std::vector<Vec3r>& samples, F&& visit) const {
+  void forEachWithin(const Vec3r& p, Real radius, const std::vector<Vec3r>& samples, F&& visit) const {
     long c[3] = {0, 0, 0};
     if (!cellOf(p, c) || !nearOccupied[cellIndex(c[0], c[1], c[2])]) return;
-    for (long z = std::max(0L, c[2] - 1); z <= std::min(dims[2] - 1, c[2] + 1); ++z)
-      for (long y = std::max(0L, c[1] - 1); y <= std::min(dims[1] - 1, c[1] + 1); ++y) {
+    // Only the cells the ball [p - radius, p + radius] overlaps: with cells no
+    // smaller than the radius, at most 2 per axis.
+    long lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      const Real offset = (p[a] - origin[a]) * inverseCellSize, reach = radius * inverseCellSize;
+      lo[a] = std::max(0L, static_cast<long>(std::floor(offset - reach)));
+      hi[a] = std::min(dims[a] - 1, static_cast<long>(std::floor(offset + reach)));
+    }
+    const Real radius2 = radius * radius;
+    for (long z = lo[2]; z <= hi[2]; ++z)
+      for (long y = lo[1]; y <= hi[1]; ++y) {
         const long row = cellIndex(0, y, z);
-        const long x0 = std::max(0L, c[0] - 1), x1 = std::min(dims[0] - 1, c[0] + 1);
-        // cells x0..x1 of a row are contiguous
-        for (std::uint32_t s = cellStart[row + x0]; s < cellStart[row + x1 + 1]; ++s) {
-          const std::uint32_t k = sorted[s];
+        // cells lo..hi of a row are contiguous
+        const std::uint32_t end = cellStart[row + hi[0] + 1];
+        for (std::uint32_t k = cellStart[row + lo[0]]; k < end; ++k)
           if (squaredDistance(p, samples[k]) <= radius2) visit(k);
-        }
       }
   }
 };
@@ -99,17 +119,71 @@ void BoundaryParticles::sample(const std::vector<BoundaryPtr>& boundaries, Real 
                                Real sampleRadius) {
   mSamples.clear();
   mOwners.clear();
+  mLattices.clear();
+  // Lattices first (flat walls: found from a particle's plane coordinates),
+  // then the other samples (meshes), indexed by the grid.
+  std::vector<Vec3r> points;
+  std::vector<std::uint32_t> pointOwners;
+  std::vector<SampleLattice> lattices;
   for (std::size_t b = 0; b < boundaries.size(); ++b) {
-    const std::size_t first = mSamples.size();
-    boundaries[b]->sampleSurface(maxGap, mSamples);
-    mOwners.resize(mSamples.size(), static_cast<std::uint32_t>(b));
-    (void)first;
+    lattices.clear();
+    boundaries[b]->sampleSurfaceLattices(maxGap, lattices, points);
+    pointOwners.resize(points.size(), static_cast<std::uint32_t>(b));
+    for (const SampleLattice& lattice : lattices) {
+      LatticeEntry entry;
+      entry.lattice = lattice;
+      entry.normal = lattice.axisU.cross(lattice.axisV).normalized();
+      entry.first = static_cast<std::uint32_t>(mSamples.size());
+      lattice.append(mSamples);
+      mOwners.resize(mSamples.size(), static_cast<std::uint32_t>(b));
+      mLattices.push_back(entry);
+    }
   }
+  const std::size_t base = mSamples.size();
+  mSamples.insert(mSamples.end(), points.begin(), points.end());
+  mOwners.insert(mOwners.end(), pointOwners.begin(), pointOwners.end());
   mGrid.reset();
-  if (!mSamples.empty()) {
+  if (mSamples.size() > base) {
     mGrid = std::make_unique<Grid>();
-    mGrid->build(mSamples, sampleRadius);
+    mGrid->build(mSamples, mOwners, base, sampleRadius);
   }
+}
+
+namespace {
+/// The lattice indices i with |s_i - s| <= reach (s_i = -half + 2 half i / intervals),
+/// clamped to [first, last], widened by a rounding margin; false if none.
+bool latticeRange(Real s, Real reach, Real half, long intervals, long first, long last, long& lo, long& hi) {
+  const Real scale = Real(intervals) / (2 * half);
+  constexpr Real kMargin = Real(1e-3);  // in lattice steps: the exact distance test decides
+  lo = std::max(first, static_cast<long>(std::ceil((s - reach + half) * scale - kMargin)));
+  hi = std::min(last, static_cast<long>(std::floor((s + reach + half) * scale + kMargin)));
+  return lo <= hi;
+}
+} // namespace
+
+template <typename F>
+void BoundaryParticles::forEachSampleWithin(const Vec3r& x, Real radius, F&& visit) const {
+  const Real radius2 = radius * radius;
+  for (const LatticeEntry& entry : mLattices) {
+    const SampleLattice& lattice = entry.lattice;
+    const Vec3r relative = x - lattice.center;
+    const Real height = relative.dot(entry.normal);
+    if (std::abs(height) > radius) continue;
+    // The disc of the ball in the lattice's plane.
+    const Real reach = std::sqrt(std::max(Real(0), radius2 - height * height));
+    long i0, i1, j0, j1;
+    if (!latticeRange(relative.dot(lattice.axisU), reach, lattice.halfU, lattice.intervalsU, lattice.firstU,
+                      lattice.lastU, i0, i1) ||
+        !latticeRange(relative.dot(lattice.axisV), reach, lattice.halfV, lattice.intervalsV, lattice.firstV,
+                      lattice.lastV, j0, j1))
+      continue;
+    for (long j = j0; j <= j1; ++j) {
+      const std::uint32_t row = entry.first + static_cast<std::uint32_t>(lattice.offset(i0, j));
+      for (std::uint32_t k = row; k <= row + std::uint32_t(i1 - i0); ++k)
+        if (squaredDistance(x, mSamples[k]) <= radius2) visit(k);
+    }
+  }
+  if (mGrid) mGrid->forEachWithin(x, radius, mSamples, visit);
 }
 
 std::vector<std::size_t> BoundaryParticles::samplesPerBoundary(std::size_t boundaryCount) const {
@@ -133,8 +207,7 @@ void BoundaryParticles::update(const Particles& particles, const std::vector<Bou
   std::vector<ChunkOut> out(chunks);
   mMirrorOffsets.resize(n + 1);
   mSampleNeighbors.offsets.resize(n + 1);
-  const bool samples = withSamples && mGrid;
-  const Real radius2 = sampleRadius * sampleRadius;
+  const bool samples = withSamples && !mSamples.empty();
   const std::uint32_t boundaryCount = static_cast<std::uint32_t>(boundaries.size());
 
   // Pass 1: per chunk, the maps and sample indices, and per particle their counts
@@ -148,7 +221,7 @@ void BoundaryParticles::update(const Particles& particles, const std::vector<Bou
       if (withMirrors)
         for (std::uint32_t b = 0; b < boundaryCount; ++b) boundaries[b]->mirrorMaps(x, mirrorRange, b, chunk.maps);
       if (samples)
-        mGrid->forEachWithin(x, radius2, mSamples, [&](std::uint32_t k) { chunk.samples.push_back(k); });
+        forEachSampleWithin(x, sampleRadius, [&](std::uint32_t k) { chunk.samples.push_back(k); });
       mMirrorOffsets[i + 1] = static_cast<std::uint32_t>(chunk.maps.size() - mapsBefore);
       mSampleNeighbors.offsets[i + 1] = static_cast<std::uint32_t>(chunk.samples.size() - samplesBefore);
     }

@@ -3,7 +3,10 @@
 ///        built by the Simulation and read by every pass of the step:
 ///        - type I: the static surface samples of every boundary (sampled once
 ///          with no gap above sampleGap * r0), with for each fluid particle the
-///          samples within a query radius (r0 for WCSPH; compressed rows);
+///          samples within a query radius (r0 for WCSPH; compressed rows).
+///          Samples on flat walls are kept as lattices and found from the
+///          particle's coordinates in the wall's plane; the others (meshes)
+///          through a cell grid;
 ///        - type II: for each fluid particle within kappa h of a boundary the
 ///          mirror maps it sees (compressed rows); its mirror particles are the
 ///          images of itself and of its fluid neighbours under those maps that
@@ -38,6 +41,8 @@ public:
               Real sampleRadius, Real mirrorRange, bool withSamples, bool withMirrors);
 
   // --- type I ---
+  /// All samples: the flat walls' lattices row by row, then the other
+  /// samples (meshes) in the order of the sample grid's cells.
   const std::vector<Vec3r>& samplePositions() const { return mSamples; }
   const std::vector<std::uint32_t>& sampleOwners() const { return mOwners; }  ///< boundary index per sample
   /// For fluid particle i: samples within sampleRadius (indices into samplePositions()).
@@ -57,6 +62,16 @@ public:
   std::vector<std::size_t> samplesPerBoundary(std::size_t boundaryCount) const;
 
 private:
+  /// Calls visit(k) for every type I sample k within radius of x.
+  template <typename F>
+  void forEachSampleWithin(const Vec3r& x, Real radius, F&& visit) const;
+
+  struct LatticeEntry {
+    SampleLattice lattice;
+    Vec3r normal = Vec3r::UnitZ();
+    std::uint32_t first = 0;  ///< index of its first point in mSamples
+  };
+  std::vector<LatticeEntry> mLattices;
   std::vector<Vec3r> mSamples;
   std::vector<std::uint32_t> mOwners;
   NeighborLists mSampleNeighbors;

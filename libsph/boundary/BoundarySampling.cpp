@@ -8,19 +8,6 @@
 
 namespace cascade {
 
-void sampleRectangle(const Vec3r& center, const Vec3r& axisU, const Vec3r& axisV, Real halfU,
-                     Real halfV, Real maxGap, std::vector<Vec3r>& samples) {
-  const long nu = std::max(1L, static_cast<long>(std::ceil(2 * halfU / maxGap - Real(1e-4))));
-  const long nv = std::max(1L, static_cast<long>(std::ceil(2 * halfV / maxGap - Real(1e-4))));
-  for (long j = 0; j <= nv; ++j) {
-    const Real t = -halfV + 2 * halfV * Real(j) / Real(nv);
-    for (long i = 0; i <= nu; ++i) {
-      const Real s = -halfU + 2 * halfU * Real(i) / Real(nu);
-      samples.push_back(center + s * axisU + t * axisV);
-    }
-  }
-}
-
 void removeDuplicateSamples(std::vector<Vec3r>& samples, Real tolerance) {
   if (samples.empty() || tolerance <= 0) return;
   // Hash cells of edge `tolerance`; a duplicate lies in one of the 27 cells around.

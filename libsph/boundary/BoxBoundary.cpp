@@ -25,20 +25,31 @@ BoundaryPtr BoxBoundary::solid(const Vec3r& center, const Vec3r& halfExtents,
   return box;
 }
 
-void BoxBoundary::sampleSurface(Real maxGap, std::vector<Vec3r>& samples) const {
-  const std::size_t first = samples.size();
+void BoxBoundary::sampleSurfaceLattices(Real maxGap, std::vector<SampleLattice>& lattices,
+                                        std::vector<Vec3r>&) const {
+  // Each wall on its own lattice. Two walls sharing an edge use the same count
+  // along it, so their edge points coincide: a point on an edge (or corner)
+  // belongs to the wall of the lowest axis that holds it, and the later walls
+  // drop that row or column of their lattice (no hash pass over the samples).
   for (int axis = 0; axis < 3; ++axis)
     for (int side = 0; side < 2; ++side) {
       if (!faceIsWall(axis, side)) continue;
       const int a = (axis + 1) % 3, b = (axis + 2) % 3;
       const Vec3r normal = mRotation.col(axis) * (side ? Real(1) : Real(-1));
-      sampleRectangle(mCenter + normal * mHalf[axis], mRotation.col(a), mRotation.col(b), mHalf[a],
-                      mHalf[b], maxGap, samples);
+      SampleLattice wall = SampleLattice::rectangle(mCenter + normal * mHalf[axis], mRotation.col(a), mRotation.col(b),
+                                                    mHalf[a], mHalf[b], maxGap);
+      if (a < axis && faceIsWall(a, 0)) wall.firstU = 1;
+      if (a < axis && faceIsWall(a, 1)) wall.lastU = wall.intervalsU - 1;
+      if (b < axis && faceIsWall(b, 0)) wall.firstV = 1;
+      if (b < axis && faceIsWall(b, 1)) wall.lastV = wall.intervalsV - 1;
+      if (wall.size() > 0) lattices.push_back(wall);
     }
-  std::vector<Vec3r> mine(samples.begin() + first, samples.end());
-  removeDuplicateSamples(mine, maxGap * Real(0.01));
-  samples.resize(first);
-  samples.insert(samples.end(), mine.begin(), mine.end());
+}
+
+void BoxBoundary::sampleSurface(Real maxGap, std::vector<Vec3r>& samples) const {
+  std::vector<SampleLattice> lattices;
+  sampleSurfaceLattices(maxGap, lattices, samples);
+  for (const SampleLattice& lattice : lattices) lattice.append(samples);
 }
 
 void BoxBoundary::mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryIndex,

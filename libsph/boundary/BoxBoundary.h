@@ -26,6 +26,8 @@ public:
 
   std::string kind() const override { return mTank ? "tank" : "box"; }
   void sampleSurface(Real maxGap, std::vector<Vec3r>& samples) const override;
+  void sampleSurfaceLattices(Real maxGap, std::vector<SampleLattice>& lattices,
+                             std::vector<Vec3r>& points) const override;
   void mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryIndex,
                   std::vector<MirrorMap>& maps) const override;
   /// Tank: outside the box (through a wall); solid: inside the box.

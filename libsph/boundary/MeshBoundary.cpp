@@ -2,6 +2,7 @@
 
 #include "libsph/Errors.h"
 #include "libsph/boundary/BoundarySampling.h"
+#include "libsph/boundary/TriangleBand.h"
 
 // Heavy headers stay here (BRIEF: assimp / CGAL inside the .cpp files).
 #include <assimp/Importer.hpp>
@@ -23,8 +24,10 @@
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_stop_predicate.h>
 
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <map>
+#include <mutex>
 #include <ostream>
 #include <unordered_map>
 
@@ -71,27 +74,6 @@ TriangleMesh toTriangleMesh(const SurfaceMesh& mesh) {
     if (k == 3) result.triangles.push_back(tri);
   }
   return result;
-}
-
-/// Closest point on triangle (a, b, c) to p (Ericson, Real-Time Collision Detection 5.1.5).
-Vec3d closestOnTriangle(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
-  const Vec3d ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Vec3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + (d1 / (d1 - d3)) * ab;
-  const Vec3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + (d2 / (d2 - d6)) * ac;
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
-  const double denom = 1.0 / (va + vb + vc);
-  return a + ab * (vb * denom) + ac * (vc * denom);
 }
 
 } // namespace
@@ -232,6 +214,25 @@ struct MeshBoundary::Impl {
   double cellSize = 1;
   long dims[3] = {1, 1, 1};
   std::vector<std::uint32_t> cellStart, cellTriangles;
+  // The mirror queries' narrow band (TriangleBand.h), built by the first query
+  // of a range; queries of another range take the general grid above.
+  mutable std::mutex bandMutex;
+  mutable std::unique_ptr<const TriangleBand> bandOwner;
+  mutable std::atomic<const TriangleBand*> band{nullptr};
+
+  const TriangleBand* bandFor(double range) const {
+    const TriangleBand* ready = band.load(std::memory_order_acquire);
+    if (!ready) {
+      std::lock_guard<std::mutex> lock(bandMutex);
+      ready = band.load(std::memory_order_acquire);
+      if (!ready) {
+        bandOwner = std::make_unique<const TriangleBand>(a, b, c, range);
+        ready = bandOwner.get();
+        band.store(ready, std::memory_order_release);
+      }
+    }
+    return ready->range() == range ? ready : nullptr;
+  }
 
   void build() {
     const std::size_t n = mesh.triangles.size();
@@ -382,7 +383,8 @@ void MeshBoundary::mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundary
     if (x[k] < m.lo[k] - range || x[k] > m.hi[k] + range) return;
   Vec3d point;
   const Vec3d p = x.cast<double>();
-  const long t = m.closest(p, double(range), point);
+  const TriangleBand* band = m.bandFor(double(range));
+  const long t = band ? band->closest(p, point) : m.closest(p, double(range), point);
   if (t < 0) return;
   const Vec3d offset = p - point;
   const double distance = offset.norm();

@@ -43,6 +43,11 @@ void PlaneBoundary::sampleSurface(Real maxGap, std::vector<Vec3r>& samples) cons
   sampleRectangle(mCenter, mAxisU, mAxisV, mHalfU, mHalfV, maxGap, samples);
 }
 
+void PlaneBoundary::sampleSurfaceLattices(Real maxGap, std::vector<SampleLattice>& lattices,
+                                          std::vector<Vec3r>&) const {
+  lattices.push_back(SampleLattice::rectangle(mCenter, mAxisU, mAxisV, mHalfU, mHalfV, maxGap));
+}
+
 void PlaneBoundary::mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryIndex,
                                std::vector<MirrorMap>& maps) const {
   const Vec3r rel = x - mCenter;

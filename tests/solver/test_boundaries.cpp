@@ -1,6 +1,7 @@
 // Unit tests of the boundary geometry: mirror maps, type I sampling (gaps,
 // SEED 7-point triangles), mesh loading, simplification, closure and inside tests.
 #include "libsph/Errors.h"
+#include "libsph/boundary/BoundarySampling.h"
 #include "libsph/boundary/BoxBoundary.h"
 #include "libsph/boundary/MeshBoundary.h"
 #include "libsph/boundary/PlaneBoundary.h"
@@ -94,6 +95,42 @@ TEST(BoxBoundary, SamplesLeaveNoGapWiderThanAsked) {
   }
   // On a square grid of spacing <= gap, no point is farther than gap / sqrt(2).
   EXPECT_LE(largestHole(samples, probes), gap * 0.7072f);
+}
+
+TEST(BoxBoundary, EdgeAndCornerSamplesAppearOnce) {
+  // Walls sharing an edge put the same lattice points on it; each must be
+  // sampled once (a doubled sample doubles SEED (11)'s force there). The count
+  // must equal the full lattices of all walls with coincident points merged.
+  const Real gap = 0.013f;
+  const auto rotation = Transform::rotationFromEulerDegrees(Vec3r(10, 25, -40));
+  const BoundaryPtr boxes[] = {BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(0.3f, 0.2f, 0.1f)),
+                               BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(0.3f, 0.2f, 0.1f), true),
+                               BoxBoundary::solid(Vec3r(0.1f, -0.2f, 0.3f), Vec3r(0.2f, 0.05f, 0.12f), rotation)};
+  for (const BoundaryPtr& box : boxes) {
+    std::vector<Vec3r> samples;
+    box->sampleSurface(gap, samples);
+    std::vector<Vec3r> merged = samples;
+    removeDuplicateSamples(merged, gap * 0.01f);
+    EXPECT_EQ(merged.size(), samples.size()) << box->kind() << ": duplicated edge samples";
+    // Every wall's whole lattice, merged: the same count.
+    std::vector<Vec3r> lattices;
+    const auto* b = static_cast<const BoxBoundary*>(box.get());
+    Vec3r lo, hi;
+    b->bounds(lo, hi);
+    const TriangleMesh mesh = b->surfaceMesh();
+    for (std::size_t f = 0; f + 1 < mesh.triangles.size(); f += 2) {
+      // each wall is two triangles (corners 0, 1, 2, 3 of a rectangle)
+      const Vec3r c0 = mesh.vertices[mesh.triangles[f][0]].cast<Real>();
+      const Vec3r c1 = mesh.vertices[mesh.triangles[f][1]].cast<Real>();
+      const Vec3r c3 = mesh.vertices[mesh.triangles[f + 1][2]].cast<Real>();
+      const Vec3r u = c1 - c0, v = c3 - c0;
+      const long nu = rectangleIntervals(Real(0.5) * u.norm(), gap), nv = rectangleIntervals(Real(0.5) * v.norm(), gap);
+      for (long j = 0; j <= nv; ++j)
+        for (long i = 0; i <= nu; ++i) lattices.push_back(c0 + (Real(i) / Real(nu)) * u + (Real(j) / Real(nv)) * v);
+    }
+    removeDuplicateSamples(lattices, gap * 0.01f);
+    EXPECT_EQ(lattices.size(), samples.size()) << box->kind();
+  }
 }
 
 TEST(MeshSampling, SevenPointsPerTriangleSharedOnce) {
