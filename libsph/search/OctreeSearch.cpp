@@ -60,6 +60,28 @@ struct BoxFilterBaseline {
     }
     return mask;
   }
+
+  /// Which children of a record meet the query box (overlap) and lie inside it (inside).
+  static inline void childMasks(const OctreeSearch::ChildBlock& block, const std::uint32_t queryLo[3],
+                                const std::uint32_t queryHi[3], unsigned& overlap, unsigned& inside) {
+    overlap = inside = 0;
+    for (unsigned k = 0; k < 8; ++k) {
+      const std::uint32_t last = (std::uint32_t(1) << (kLevels - block.level[k])) - 1;
+      bool meets = true, within = true;
+      for (int a = 0; a < 3; ++a) {
+        const std::uint32_t lo = block.lo[a][k], hi = lo + last;
+        meets &= lo <= queryHi[a] && hi >= queryLo[a];
+        within &= lo >= queryLo[a] && hi <= queryHi[a];
+      }
+      overlap |= unsigned(meets) << k;
+      inside |= unsigned(within) << k;
+    }
+  }
+  static inline unsigned leafMask(const OctreeSearch::ChildBlock& block) {
+    unsigned mask = 0;
+    for (unsigned k = 0; k < 8; ++k) mask |= unsigned(block.block[k] == OctreeSearch::kLeaf) << k;
+    return mask;
+  }
 };
 
 #ifdef CASCADE_SCAN_X86
@@ -81,6 +103,34 @@ struct BoxFilterAvx2 {
     }
     return ~static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(outside))) & 0xffu;
   }
+
+  __attribute__((target("avx2"))) static inline void childMasks(const OctreeSearch::ChildBlock& block,
+                                                                const std::uint32_t queryLo[3],
+                                                                const std::uint32_t queryHi[3],
+                                                                unsigned& overlap, unsigned& inside) {
+    // Cube edge - 1 per lane: 2^(21 - level) - 1.
+    const __m256i level = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(block.level)));
+    const __m256i one = _mm256_set1_epi32(1);
+    const __m256i last =
+        _mm256_sub_epi32(_mm256_sllv_epi32(one, _mm256_sub_epi32(_mm256_set1_epi32(kLevels), level)), one);
+    __m256i outside = _mm256_setzero_si256(), notInside = _mm256_setzero_si256();
+    for (int a = 0; a < 3; ++a) {
+      const __m256i lo = _mm256_load_si256(reinterpret_cast<const __m256i*>(block.lo[a]));
+      const __m256i hi = _mm256_add_epi32(lo, last);
+      const __m256i qlo = _mm256_set1_epi32(static_cast<int>(queryLo[a]));
+      const __m256i qhi = _mm256_set1_epi32(static_cast<int>(queryHi[a]));
+      outside = _mm256_or_si256(outside, _mm256_or_si256(_mm256_cmpgt_epi32(lo, qhi), _mm256_cmpgt_epi32(qlo, hi)));
+      notInside =
+          _mm256_or_si256(notInside, _mm256_or_si256(_mm256_cmpgt_epi32(qlo, lo), _mm256_cmpgt_epi32(hi, qhi)));
+    }
+    overlap = ~static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(outside))) & 0xffu;
+    inside = ~static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(notInside))) & 0xffu;
+  }
+  __attribute__((target("avx2"))) static inline unsigned leafMask(const OctreeSearch::ChildBlock& block) {
+    const __m256i child = _mm256_load_si256(reinterpret_cast<const __m256i*>(block.block));
+    return static_cast<unsigned>(
+        _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(child, _mm256_set1_epi32(-1)))));
+  }
 };
 #else
 using BoxFilterAvx2 = BoxFilterBaseline;
@@ -94,7 +144,7 @@ void OctreeSearch::build(const Vec3r* points, std::size_t count, Real maxSupport
   mPoints = points;
   mCount = count;
   mRadius = maxSupportRadius;
-  mNodes.clear();
+  mBlockCount = 0;
 
   const PointBounds bounds = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, count, 4096), PointBounds{},
@@ -173,107 +223,207 @@ void OctreeSearch::build(const Vec3r* points, std::size_t count, Real maxSupport
 
   // The tree. The root is the cube of the common prefix of all codes (the
   // levels above it would each have a single child).
-  Node root{};
-  const int rootLevel = commonLevel(mKeys.front(), mKeys.back());
-  cubeCorner(mKeys.front(), rootLevel, root.corner);
-  root.level = static_cast<std::uint8_t>(rootLevel);
-  root.begin = 0;
-  root.end = static_cast<std::uint32_t>(count);
-  mNodes.push_back(root);
+  buildTree();
+}
 
-  // Top of the tree breadth first until the nodes are small enough to be
-  // built by one task each, then those subtrees in parallel, then spliced in.
-  std::vector<std::uint32_t> frontier{0}, deferred;
-  auto split = [&](std::uint32_t nodeIndex, std::vector<Node>& nodes, std::vector<std::uint32_t>* next) {
-    Node node = nodes[nodeIndex];
-    const std::uint32_t size = node.end - node.begin;
-    if (size <= mLeafSize || node.level >= kLevels) return;
-    // Skip the chain of one-child cubes: split at the level where the codes differ.
-    const int level = std::max<int>(node.level, commonLevel(mKeys[node.begin], mKeys[node.end - 1]));
-    if (level >= kLevels) return;  // coincident lattice cells: a leaf of the finest level
-    node.level = static_cast<std::uint8_t>(level);
-    cubeCorner(mKeys[node.begin], level, node.corner);
-    node.firstChild = static_cast<std::uint32_t>(nodes.size());
-    node.childCount = 0;
-    std::uint32_t start = node.begin;
-    while (start < node.end) {
-      const unsigned digit = childDigit(mKeys[start], level);
-      std::uint32_t stop;
-      if (node.end - start <= 16) {
-        stop = start + 1;
-        while (stop < node.end && childDigit(mKeys[stop], level) == digit) ++stop;
-      } else {
-        stop = static_cast<std::uint32_t>(
-            std::partition_point(mKeys.begin() + start, mKeys.begin() + node.end,
-                                 [&](std::uint64_t key) { return childDigit(key, level) <= digit; }) -
-            mKeys.begin());
+/// Writes the children of the node over places [begin, end), split at
+/// `level` (the level of the smallest cube holding its points), into `block`;
+/// innerChild(begin, end, level, lane) returns the record of an inner child's
+/// own children (and schedules its split).
+template <typename InnerChild>
+void OctreeSearch::splitNode(ChildBlock& block, std::uint32_t begin, std::uint32_t end, int level,
+                             InnerChild&& innerChild) const {
+  const std::uint64_t* keys = mKeys.data();
+  unsigned k = 0;
+  std::uint32_t start = begin;
+  while (start < end) {
+    const unsigned digit = childDigit(keys[start], level);
+    std::uint32_t stop;
+    if (end - start <= 16) {
+      stop = start + 1;
+      while (stop < end && childDigit(keys[stop], level) == digit) ++stop;
+    } else {
+      stop = static_cast<std::uint32_t>(
+          std::partition_point(keys + start, keys + end,
+                               [&](std::uint64_t key) { return childDigit(key, level) <= digit; }) -
+          keys);
+    }
+    // A child with more points than a leaf holds is split in its turn, at the
+    // level where its codes differ (the chain of one-child cubes above is
+    // skipped); points in one lattice cell cannot be split and share a leaf.
+    int childLevel = level + 1;
+    bool inner = false;
+    if (stop - start > mLeafSize) {
+      const int common = commonLevel(keys[start], keys[stop - 1]);
+      if (common < kLevels) {
+        inner = true;
+        childLevel = common;
       }
-      Node child{};
-      child.level = static_cast<std::uint8_t>(level + 1);
-      cubeCorner(mKeys[start], level + 1, child.corner);
-      child.begin = start;
-      child.end = stop;
-      nodes.push_back(child);
-      ++node.childCount;
-      start = stop;
     }
-    nodes[nodeIndex] = node;
-    if (next)
-      for (std::uint32_t c = 0; c < node.childCount; ++c) next->push_back(node.firstChild + c);
+    setLane(block, k, start, childLevel, keys[start]);
+    block.block[k] = inner ? innerChild(start, stop, childLevel, k) : kLeaf;
+    ++k;
+    start = stop;
+  }
+  closeBlock(block, k, end);
+}
+
+void OctreeSearch::setLane(ChildBlock& block, unsigned lane, std::uint32_t begin, int level,
+                           std::uint64_t key) {
+  std::uint32_t corner[3];
+  cubeCorner(key, level, corner);
+  for (int a = 0; a < 3; ++a) block.lo[a][lane] = corner[a];
+  block.begin[lane] = begin;
+  block.level[lane] = static_cast<std::uint8_t>(level);
+}
+
+void OctreeSearch::closeBlock(ChildBlock& block, unsigned used, std::uint32_t end) {
+  for (unsigned k = 0; k < 8; ++k) {
+    if (k < used) continue;
+    for (int a = 0; a < 3; ++a) block.lo[a][k] = 1u << 30;  // meets no query box
+    block.begin[k] = end;
+    block.level[k] = kLevels;
+    block.block[k] = kLeaf;
+  }
+  block.begin[8] = end;
+}
+
+void OctreeSearch::buildTree() {
+  const std::uint32_t count = static_cast<std::uint32_t>(mCount);
+  struct Pending {
+    std::uint32_t begin, end;
+    int level;
+    std::uint32_t block;  ///< where its children go
   };
-  while (!frontier.empty()) {
-    std::vector<std::uint32_t> next;
-    for (const std::uint32_t nodeIndex : frontier) {
-      if (mNodes[nodeIndex].end - mNodes[nodeIndex].begin <= kSerialBuild)
-        deferred.push_back(nodeIndex);
-      else
-        split(nodeIndex, mNodes, &next);
-    }
-    frontier.swap(next);
-  }
-  std::vector<std::vector<Node>> subtrees(deferred.size());
-  tbb::parallel_for(std::size_t(0), deferred.size(), [&](std::size_t d) {
-    std::vector<Node>& nodes = subtrees[d];
-    nodes.push_back(mNodes[deferred[d]]);
-    std::vector<std::uint32_t> stack{0};
-    while (!stack.empty()) {
-      const std::uint32_t nodeIndex = stack.back();
-      stack.pop_back();
-      split(nodeIndex, nodes, nullptr);
-      const Node& node = nodes[nodeIndex];
-      for (std::uint32_t c = 0; c < node.childCount; ++c) stack.push_back(node.firstChild + c);
-    }
-  });
-  std::size_t total = mNodes.size();
-  std::vector<std::size_t> base(deferred.size());
-  for (std::size_t d = 0; d < deferred.size(); ++d) {
-    base[d] = total;
-    total += subtrees[d].size() - 1;
-  }
-  if (total >= std::size_t(kNoIndex)) throw std::length_error("octree: too many nodes");
-  mNodes.resize(total);
-  tbb::parallel_for(std::size_t(0), deferred.size(), [&](std::size_t d) {
-    // Subtree node i >= 1 goes to base + i - 1; its root replaces the deferred node.
-    const auto relocate = [&](Node node) {
-      if (node.childCount) node.firstChild = static_cast<std::uint32_t>(base[d] + node.firstChild - 1);
-      return node;
+  // Record 0: the root alone.
+  ChildBlock rootBlock;
+  const int rootLevel = commonLevel(mKeys.front(), mKeys.back());
+  const bool rootInner = count > mLeafSize && rootLevel < kLevels;
+  setLane(rootBlock, 0, 0, rootLevel, mKeys.front());
+  rootBlock.block[0] = kLeaf;
+  closeBlock(rootBlock, 1, count);
+
+  // Top of the tree breadth first, one record per inner node, until the nodes
+  // are small enough to be built by one task each (deferred); then those
+  // subtrees in parallel. An inner node has at least two children, so a
+  // subtree over n points has at most n - 1 inner nodes: each deferred
+  // subtree writes its records into a region of that size, its root's record
+  // first (regions are not filled up; the rest stays untouched memory).
+  std::vector<ChildBlock> top{rootBlock};
+  std::vector<Pending> frontier, deferred;
+  std::vector<std::pair<std::uint32_t, unsigned>> deferredLane;  // (top record, lane)
+  auto topChild = [&](std::uint32_t parent) {
+    return [&, parent](std::uint32_t begin, std::uint32_t end, int level, unsigned lane) {
+      if (end - begin > kSerialBuild) {
+        const std::uint32_t index = static_cast<std::uint32_t>(top.size() + frontier.size());
+        frontier.push_back(Pending{begin, end, level, index});
+        return index;
+      }
+      deferred.push_back(Pending{begin, end, level, 0});
+      deferredLane.emplace_back(parent, lane);
+      return kLeaf;  // patched below
     };
-    const std::vector<Node>& nodes = subtrees[d];
-    mNodes[deferred[d]] = relocate(nodes[0]);
-    for (std::size_t i = 1; i < nodes.size(); ++i) mNodes[base[d] + i - 1] = relocate(nodes[i]);
+  };
+  if (rootInner) top[0].block[0] = topChild(0)(0, count, rootLevel, 0);
+  while (!frontier.empty()) {
+    std::vector<Pending> current;
+    current.swap(frontier);
+    const std::size_t firstNew = top.size();
+    top.resize(top.size() + current.size());
+    for (std::size_t i = 0; i < current.size(); ++i) {
+      const Pending& node = current[i];
+      ChildBlock block;
+      splitNode(block, node.begin, node.end, node.level, topChild(static_cast<std::uint32_t>(firstNew + i)));
+      top[firstNew + i] = block;
+    }
+  }
+
+  std::vector<std::uint32_t> region(deferred.size() + 1);
+  region[0] = static_cast<std::uint32_t>(top.size());
+  for (std::size_t d = 0; d < deferred.size(); ++d) {
+    const std::uint64_t next = std::uint64_t(region[d]) + (deferred[d].end - deferred[d].begin - 1);
+    if (next >= std::uint64_t(kLeaf)) throw std::length_error("octree: too many nodes");
+    region[d + 1] = static_cast<std::uint32_t>(next);
+  }
+  mBlockCount = region.back();
+  if (mBlockCount > mBlockCapacity) {
+    // Default-initialised (untouched) memory: the pages a build does not use
+    // are never committed.
+    mBlocks.reset(new ChildBlock[mBlockCount]);
+    mBlockCapacity = mBlockCount;
+  }
+  ChildBlock* blocks = mBlocks.get();
+  for (std::size_t d = 0; d < deferred.size(); ++d)
+    top[deferredLane[d].first].block[deferredLane[d].second] = region[d];
+  std::copy(top.begin(), top.end(), blocks);
+
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, deferred.size(), 1), [&](const auto& range) {
+    std::vector<Pending> stack, children;
+    for (std::size_t d = range.begin(); d != range.end(); ++d) {
+      std::uint32_t next = region[d] + 1;
+      stack.assign(1, Pending{deferred[d].begin, deferred[d].end, deferred[d].level, region[d]});
+      while (!stack.empty()) {
+        const Pending node = stack.back();
+        stack.pop_back();
+        children.clear();
+        splitNode(blocks[node.block], node.begin, node.end, node.level,
+                  [&](std::uint32_t begin, std::uint32_t end, int level, unsigned) {
+                    children.push_back(Pending{begin, end, level, next});
+                    return next++;
+                  });
+        // First child on top: the records follow the curve depth first.
+        stack.insert(stack.end(), children.rbegin(), children.rend());
+      }
+    }
   });
 }
 
+std::vector<OctreeSearch::Node> OctreeSearch::nodes() const {
+  std::vector<Node> nodes;
+  if (mCount == 0) return nodes;
+  // Breadth first from the root; children of a node contiguous.
+  struct Entry {
+    std::uint32_t block;  ///< record of the node's children, or kLeaf
+  };
+  std::vector<Entry> entries;
+  const ChildBlock& root = mBlocks[0];
+  Node rootNode{};
+  for (int a = 0; a < 3; ++a) rootNode.corner[a] = root.lo[a][0];
+  rootNode.begin = root.begin[0];
+  rootNode.end = root.begin[1];
+  rootNode.level = root.level[0];
+  nodes.push_back(rootNode);
+  entries.push_back(Entry{root.block[0]});
+  for (std::size_t n = 0; n < nodes.size(); ++n) {
+    if (entries[n].block == kLeaf) continue;
+    const ChildBlock& block = mBlocks[entries[n].block];
+    nodes[n].firstChild = static_cast<std::uint32_t>(nodes.size());
+    for (unsigned k = 0; k < 8 && block.lo[0][k] != (1u << 30); ++k) {
+      Node child{};
+      for (int a = 0; a < 3; ++a) child.corner[a] = block.lo[a][k];
+      child.begin = block.begin[k];
+      child.end = block.begin[k + 1];
+      child.level = block.level[k];
+      nodes.push_back(child);
+      entries.push_back(Entry{block.block[k]});
+      ++nodes[n].childCount;
+    }
+  }
+  return nodes;
+}
+
+std::size_t OctreeSearch::nodeCount() const { return nodes().size(); }
+
 std::size_t OctreeSearch::largestLeaf() const {
   std::size_t largest = 0;
-  for (const Node& node : mNodes)
+  for (const Node& node : nodes())
     if (!node.childCount) largest = std::max<std::size_t>(largest, node.end - node.begin);
   return largest;
 }
 
 int OctreeSearch::depth() const {
   int deepest = 0;
-  for (const Node& node : mNodes) deepest = std::max<int>(deepest, node.level);
+  for (const Node& node : nodes()) deepest = std::max<int>(deepest, node.level);
   return deepest;
 }
 
@@ -349,7 +499,7 @@ void OctreeQuery::runChunk(std::uint32_t placeBegin, std::uint32_t placeEnd, Chu
   const Real* ys = tree.mY.data();
   const Real* zs = tree.mZ.data();
   const std::uint32_t* order = tree.mOrder.data();
-  const OctreeSearch::Node* nodes = tree.mNodes.data();
+  const OctreeSearch::ChildBlock* blocks = tree.mBlocks.get();
   const double* origin = tree.mOrigin;
   const double scale = tree.mScale;
 
@@ -369,7 +519,12 @@ void OctreeQuery::runChunk(std::uint32_t placeBegin, std::uint32_t placeEnd, Chu
   Query group[kGroup];
   std::vector<std::uint32_t> runBegins, runEnds;
   std::vector<std::uint32_t> candidateLo[3], candidateHi[3];
-  std::uint32_t stack[kLevels * 8 + 16];
+  struct Frame {
+    std::uint32_t block;
+    unsigned pending;  ///< children still to visit (those meeting the box)
+    unsigned collect;  ///< of those, the ones collected without descent
+  };
+  Frame frames[kLevels + 3];  // one per level on the path from the root record
 
   auto makeQuery = [&](std::uint32_t place, Query& query) {
     const std::uint32_t q = queryOrder[place];
@@ -436,44 +591,60 @@ void OctreeQuery::runChunk(std::uint32_t placeBegin, std::uint32_t placeEnd, Chu
       ++size;
     }
 
-    // Walk the tree with the joint box.
+    // Walk the tree with the joint box, one record (the children of a node)
+    // per step, in curve order: a child that meets the box is collected if it
+    // is a leaf or lies inside the box, else its own record is entered.
     runBegins.clear();
     runEnds.clear();
     for (auto& v : candidateLo) v.clear();
     for (auto& v : candidateHi) v.clear();
     int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const std::uint32_t nodeIndex = stack[--top];
-      const OctreeSearch::Node& node = nodes[nodeIndex];
-      const std::uint32_t last = (std::uint32_t(1) << (kLevels - node.level)) - 1;
-      bool overlap = true, inside = true;
-      for (int a = 0; a < 3; ++a) {
-        const std::uint32_t nodeLo = node.corner[a], nodeHi = node.corner[a] + last;
-        overlap &= nodeLo <= hi[a] && nodeHi >= lo[a];
-        inside &= nodeLo >= lo[a] && nodeHi <= hi[a];
+    auto enter = [&](std::uint32_t blockIndex) {
+      const OctreeSearch::ChildBlock& block = blocks[blockIndex];
+      unsigned overlap, inside;
+      BoxFilter::childMasks(block, lo, hi, overlap, inside);
+      const unsigned collect = overlap & (inside | BoxFilter::leafMask(block));
+      // The records the walk enters next: start loading them now.
+      for (unsigned descend = overlap & ~collect; descend; descend &= descend - 1) {
+        const char* next = reinterpret_cast<const char*>(blocks + block.block[__builtin_ctz(descend)]);
+        __builtin_prefetch(next);
+        __builtin_prefetch(next + 64);
+        __builtin_prefetch(next + 128);
       }
-      if (!overlap) continue;
-      if (inside || node.childCount == 0) {
-        // Nodes reached one after the other along the curve are usually
-        // contiguous places: one run, with the box around both.
-        if (MergeRuns && !runEnds.empty() && runEnds.back() == node.begin) {
-          runEnds.back() = node.end;
-          for (int a = 0; a < 3; ++a) {
-            candidateLo[a].back() = std::min(candidateLo[a].back(), node.corner[a]);
-            candidateHi[a].back() = std::max(candidateHi[a].back(), node.corner[a] + last);
-          }
-          continue;
-        }
-        runBegins.push_back(node.begin);
-        runEnds.push_back(node.end);
+      frames[top++] = Frame{blockIndex, overlap, collect};
+    };
+    enter(0);
+    while (top > 0) {
+      Frame& frame = frames[top - 1];
+      if (!frame.pending) {
+        --top;
+        continue;
+      }
+      const unsigned k = static_cast<unsigned>(__builtin_ctz(frame.pending));
+      frame.pending &= frame.pending - 1;
+      const OctreeSearch::ChildBlock& block = blocks[frame.block];
+      if (!((frame.collect >> k) & 1u)) {
+        enter(block.block[k]);
+        continue;
+      }
+      const std::uint32_t last = (std::uint32_t(1) << (kLevels - block.level[k])) - 1;
+      const std::uint32_t begin = block.begin[k], end = block.begin[k + 1];
+      // Nodes reached one after the other along the curve are usually
+      // contiguous places: one run, with the box around both.
+      if (MergeRuns && !runEnds.empty() && runEnds.back() == begin) {
+        runEnds.back() = end;
         for (int a = 0; a < 3; ++a) {
-          candidateLo[a].push_back(node.corner[a]);
-          candidateHi[a].push_back(node.corner[a] + last);
+          candidateLo[a].back() = std::min(candidateLo[a].back(), block.lo[a][k]);
+          candidateHi[a].back() = std::max(candidateHi[a].back(), block.lo[a][k] + last);
         }
         continue;
       }
-      for (int c = node.childCount - 1; c >= 0; --c) stack[top++] = node.firstChild + c;
+      runBegins.push_back(begin);
+      runEnds.push_back(end);
+      for (int a = 0; a < 3; ++a) {
+        candidateLo[a].push_back(block.lo[a][k]);
+        candidateHi[a].push_back(block.lo[a][k] + last);
+      }
     }
 
     // Each query: the collected nodes that meet its cube, then exact tests.

@@ -30,6 +30,7 @@
 #include "libsph/search/ListAssembly.h"
 
 #include <cstdint>
+#include <memory>
 #include <mutex>
 #include <vector>
 
@@ -46,7 +47,8 @@ public:
              NeighborLists& out) const override;
 
   std::size_t leafSize() const { return mLeafSize; }
-  std::size_t nodeCount() const { return mNodes.size(); }
+  /// Number of nodes (leaves included; counted by a walk, for tests).
+  std::size_t nodeCount() const;
   /// Largest number of points in one leaf (1 unless points coincide, or leafSize > 1).
   std::size_t largestLeaf() const;
   /// Depth of the finest leaf (root = 0; one level per halving of the cube edge).
@@ -61,10 +63,33 @@ public:
     std::uint32_t firstChild;
     std::uint8_t level, childCount;
   };
-  const std::vector<Node>& nodes() const { return mNodes; }
+  /// The tree as a node list, breadth first from the root (made on demand, for tests).
+  std::vector<Node> nodes() const;
+
+  /// The layout the tree is stored and walked in: the children of each inner
+  /// node in one cache-line aligned record, each field an array over the (up
+  /// to eight) children, so one walk step tests all children's cubes at once
+  /// (SIMD) and reads one record instead of one node per child. Child k holds
+  /// the places [begin[k], begin[k + 1]), its cube is [lo, lo + 2^(21 - level[k]))
+  /// per axis, and its own children are record block[k] (kLeaf for a leaf).
+  /// Unused lanes have a cube outside the lattice (lo = 2^30) and meet nothing.
+  /// Record 0 holds the root alone.
+  struct alignas(64) ChildBlock {
+    std::uint32_t lo[3][8];
+    std::uint32_t begin[9];
+    std::uint32_t block[8];
+    std::uint8_t level[8];
+  };
+  static constexpr std::uint32_t kLeaf = 0xffffffffu;
 
 private:
   friend struct OctreeQuery;
+  void buildTree();
+  template <typename InnerChild>
+  void splitNode(ChildBlock& block, std::uint32_t begin, std::uint32_t end, int level,
+                 InnerChild&& innerChild) const;
+  static void setLane(ChildBlock& block, unsigned lane, std::uint32_t begin, int level, std::uint64_t key);
+  static void closeBlock(ChildBlock& block, unsigned used, std::uint32_t end);
 
   std::size_t mLeafSize;
   const Vec3r* mPoints = nullptr;
@@ -76,7 +101,10 @@ private:
   std::vector<std::uint64_t> mKeys;   ///< Morton code per place, ascending
   std::vector<std::uint32_t> mOrder;  ///< point index per place
   std::vector<Real> mX, mY, mZ;       ///< positions per place (padded)
-  std::vector<Node> mNodes;           ///< mNodes[0] is the root
+  /// The tree's records (see ChildBlock), mBlockCount of them in use; kept
+  /// between builds.
+  std::unique_ptr<ChildBlock[]> mBlocks;
+  std::size_t mBlockCount = 0, mBlockCapacity = 0;
 
   std::vector<std::uint64_t> mKeyScratch;
   std::vector<std::uint32_t> mIndexScratch;

@@ -348,7 +348,8 @@ TEST(OctreeSearch, LeavesHoldAtMostOneParticleAndCubesContainTheirPoints) {
   search::OctreeSearch octree;
   octree.build(points.data(), points.size(), 0.02f);
   std::size_t leaves = 0, listed = 0;
-  for (const auto& node : octree.nodes()) {
+  const std::vector<search::OctreeSearch::Node> nodes = octree.nodes();
+  for (const auto& node : nodes) {
     ASSERT_LT(node.begin, node.end);
     if (node.childCount == 0) {
       ++leaves;
@@ -357,7 +358,7 @@ TEST(OctreeSearch, LeavesHoldAtMostOneParticleAndCubesContainTheirPoints) {
       // Children partition the parent's points, inside the parent's cube.
       std::uint32_t expect = node.begin;
       for (std::uint32_t c = 0; c < node.childCount; ++c) {
-        const auto& child = octree.nodes()[node.firstChild + c];
+        const auto& child = nodes[node.firstChild + c];
         EXPECT_EQ(child.begin, expect);
         expect = child.end;
         EXPECT_GT(child.level, node.level);
