@@ -148,60 +148,6 @@ TriangleMesh simplifyMesh(const TriangleMesh& mesh, std::size_t targetTriangles,
   return toTriangleMesh(surface);
 }
 
-std::vector<Vec3r> sampleTrianglesSeed(const TriangleMesh& mesh, Real maxGap, std::size_t* subdividedTriangles) {
-  std::vector<Vec3r> samples;
-  std::size_t subdivided = 0;
-  // Vertices and edge midpoints of the original triangles: shared, once each.
-  std::vector<char> used(mesh.vertices.size(), 0);
-  for (const auto& t : mesh.triangles) used[t[0]] = used[t[1]] = used[t[2]] = 1;
-  for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
-    if (used[v]) samples.push_back(mesh.vertices[v].cast<Real>());
-  std::map<std::pair<std::uint32_t, std::uint32_t>, bool> edges;
-  for (const auto& t : mesh.triangles)
-    for (int e = 0; e < 3; ++e) {
-      std::uint32_t a = t[e], b = t[(e + 1) % 3];
-      if (a > b) std::swap(a, b);
-      if (edges.emplace(std::make_pair(a, b), true).second)
-        samples.push_back(Real(0.5) * (mesh.vertices[a] + mesh.vertices[b]).cast<Real>());
-    }
-  // Per triangle: the centroid, and if an edge is longer than 2 maxGap (so that
-  // vertex-midpoint gaps exceed maxGap) the 7 points of its 1-to-4 subdivisions.
-  struct Tri { Vec3r a, b, c; };
-  for (const auto& t : mesh.triangles) {
-    std::vector<Tri> stack{{mesh.vertices[t[0]].cast<Real>(), mesh.vertices[t[1]].cast<Real>(),
-                            mesh.vertices[t[2]].cast<Real>()}};
-    bool split = false;
-    while (!stack.empty()) {
-      const Tri tri = stack.back();
-      stack.pop_back();
-      const Real longest = std::max({(tri.a - tri.b).norm(), (tri.b - tri.c).norm(), (tri.c - tri.a).norm()});
-      if (longest > 2 * maxGap) {
-        split = true;
-        const Vec3r ab = Real(0.5) * (tri.a + tri.b), bc = Real(0.5) * (tri.b + tri.c), ca = Real(0.5) * (tri.c + tri.a);
-        stack.push_back({tri.a, ab, ca});
-        stack.push_back({ab, tri.b, bc});
-        stack.push_back({ca, bc, tri.c});
-        stack.push_back({ab, bc, ca});
-        continue;
-      }
-      samples.push_back((tri.a + tri.b + tri.c) / Real(3));
-      if (split) {
-        samples.push_back(tri.a);
-        samples.push_back(tri.b);
-        samples.push_back(tri.c);
-        samples.push_back(Real(0.5) * (tri.a + tri.b));
-        samples.push_back(Real(0.5) * (tri.b + tri.c));
-        samples.push_back(Real(0.5) * (tri.c + tri.a));
-      }
-    }
-    if (split) ++subdivided;
-  }
-  // Points of subdivided triangles coincide along shared edges: keep them once.
-  removeDuplicateSamples(samples, maxGap * Real(1e-3));
-  if (subdividedTriangles) *subdividedTriangles = subdivided;
-  return samples;
-}
-
 // --- MeshBoundary ---------------------------------------------------------
 
 struct MeshBoundary::Impl {

@@ -162,6 +162,39 @@ TEST(MeshSampling, SubdividesUntilNoGapExceedsTheLimit) {
   EXPECT_LE(largestHole(samples, probes), gap);
 }
 
+TEST(MeshSampling, NeighboursOfDifferentSubdivisionShareEdgePointsOnce) {
+  // A long thin triangle (16 segments per edge) next to a small one (2)
+  // across a shared edge: the edge carries the finer grid, every point
+  // appears once, and no gap exceeds the limit on either triangle.
+  TriangleMesh mesh;
+  mesh.vertices = {{0, 0, 0}, {0.2f, 0, 0}, {0, 0.03f, 0}, {-0.02f, 0.015f, 0}};
+  mesh.triangles = {{0, 1, 2}, {0, 2, 3}};
+  const Real gap = 0.01f;
+  std::size_t subdivided = 0;
+  const std::vector<Vec3r> samples = sampleTrianglesSeed(mesh, gap, &subdivided);
+  EXPECT_EQ(subdivided, 2u);
+  std::vector<Vec3r> merged = samples;
+  removeDuplicateSamples(merged, gap * 1e-3f);
+  EXPECT_EQ(merged.size(), samples.size());
+  // 4 vertices; the big triangle's 3 edges (shared one included) at 32
+  // segments (31 points each), the small one's 2 others at 4 (3 each);
+  // interior grid points (n-1)(n-2)/2 (n = 32: 465; n = 4: 3) and m^2 leaf
+  // centroids (256 and 4).
+  EXPECT_EQ(samples.size(), 4u + 3u * 31u + 2u * 3u + 465u + 256u + 3u + 4u);
+  std::mt19937 random(7);
+  std::uniform_real_distribution<float> u(0, 1);
+  std::vector<Vec3r> probes;
+  for (int k = 0; k < 400; ++k) {
+    float a = u(random), b = u(random);
+    if (a + b > 1) a = 1 - a, b = 1 - b;
+    const std::array<std::uint32_t, 3>& tri = mesh.triangles[k % 2];
+    const Vec3r p0 = mesh.vertices[tri[0]].cast<Real>(), p1 = mesh.vertices[tri[1]].cast<Real>(),
+                p2 = mesh.vertices[tri[2]].cast<Real>();
+    probes.push_back(p0 + a * (p1 - p0) + b * (p2 - p0));
+  }
+  EXPECT_LE(largestHole(samples, probes), gap);
+}
+
 TEST(MeshBoundary, CubeInsideTestMirrorsAndTransform) {
   const auto path = writeTemp("cube.obj", kCubeObj);
   MeshObstacleOptions options;
