@@ -203,10 +203,9 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
       while (simulation.time() < frameTime) {
         double target = frameTime;
         if (hasProbes) target = std::min(target, double(state.probeSamples) * probeInterval);
-        // Exact resume: the incremental grid rebuild orders points within a
-        // cell by history that a checkpoint does not hold, so every step
-        // starts from a fresh search (a full rebuild, as after a restore).
-        simulation.resetNeighborSearch();
+        // Exact resume needs no fresh search per step: the grid's incremental
+        // rebuild keeps the canonical order of a full one (UniformGridSearch.h),
+        // so a restored run (which starts with a full build) sees the same lists.
         if (simulation.time() + simulation.nextTimeStep() >= target) simulation.advanceTo(target);
         else simulation.step();
         emit();
