@@ -35,22 +35,44 @@ AnisotropicKernels computeAnisotropicKernels(const ParticleGrid& grid,
   const float radius2 = float(neighborRadius * neighborRadius), inverseRadius = float(1 / neighborRadius);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.cellCount(), 16), [&](const auto& cells) {
     std::vector<std::uint32_t> near;
+    std::vector<float> nearX, nearY, nearZ, nearR2;
     for (std::size_t cell = cells.begin(); cell != cells.end(); ++cell) {
-      // Candidates from the 27 cells around this one, once for all its particles.
+      // Candidates from the 27 cells around this one, once for all its particles,
+      // as float columns so that the distance pass below vectorises.
       near.clear();
       grid.forEachInNeighborCells(grid.cellCoord(cell), [&](std::uint32_t k) { near.push_back(k); });
+      const std::size_t m = near.size();
+      nearX.resize(m);
+      nearY.resize(m);
+      nearZ.resize(m);
+      nearR2.resize(m);
+      for (std::size_t c = 0; c < m; ++c) {
+        const Eigen::Vector3f p = position[near[c]].template cast<float>();
+        nearX[c] = p.x();
+        nearY[c] = p.y();
+        nearZ[c] = p.z();
+      }
       const auto [begin, end] = grid.cellRange(cell);
       for (std::uint32_t i = begin; i < end; ++i) {
         const Eigen::Vector3d xi = position[i].cast<double>();
         const Eigen::Vector3f xf = position[i].cast<float>();
+        const float px = xf.x(), py = xf.y(), pz = xf.z();
+        const float* __restrict cx = nearX.data();
+        const float* __restrict cy = nearY.data();
+        const float* __restrict cz = nearZ.data();
+        float* __restrict r2s = nearR2.data();
+        for (std::size_t c = 0; c < m; ++c) {
+          const float ox = cx[c] - px, oy = cy[c] - py, oz = cz[c] - pz;
+          r2s[c] = ox * ox + oy * oy + oz * oz;
+        }
         float weightSumF = 0;
         Eigen::Vector3f weightedSumF = Eigen::Vector3f::Zero();
         float xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0;
         int count = 0;
-        for (std::uint32_t j : near) {
-          const Eigen::Vector3f offset = position[j].template cast<float>() - xf;
-          const float r2 = offset.squaredNorm();
-          if (r2 >= radius2 || j == i) continue;
+        for (std::size_t c = 0; c < m; ++c) {
+          const float r2 = r2s[c];
+          if (r2 >= radius2 || near[c] == i) continue;
+          const Eigen::Vector3f offset(cx[c] - px, cy[c] - py, cz[c] - pz);
           const float q = std::sqrt(r2) * inverseRadius;
           const float w = 1 - q * q * q;  // Yu & Turk eq. 11
           ++count;

@@ -29,6 +29,8 @@ openvdb::FloatGrid::Ptr anisotropicLevelSet(const std::vector<Vec3r>& positions,
                           settings.skipInterior ? kernels.interior : none, dx,
                           [&](const openvdb::Coord& origin, const std::vector<std::uint32_t>& candidates, float* out) {
     constexpr int D = LeafT::DIM;
+    using Row = Eigen::Array<float, D, 1>;  // one row of a leaf along z
+    const Row kRowZ = Row::LinSpaced(D, 0.0f, float(D - 1));
     const Eigen::Vector3d originWorld = Eigen::Vector3d(origin.x(), origin.y(), origin.z()) * dx;
     for (std::uint32_t k : candidates) {
       openvdb::Coord lo, hi;
@@ -45,18 +47,16 @@ openvdb::FloatGrid::Ptr anisotropicLevelSet(const std::vector<Vec3r>& positions,
           const Eigen::Vector3f d(float(x - origin.x()) * step - p.x(), float(y - origin.y()) * step - p.y(),
                                   -p.z());
           const Eigen::Vector3f a = G * d;  // q at local z = 0; Yu & Turk eq. 13: W = det(G) P(|G r|)
-          // |a + t stepZ|^2 < 1 for t in (t1, t2): only those voxels of the row.
-          const float ab = a.dot(stepZ), discriminant = ab * ab - bb * (a.squaredNorm() - 1);
-          if (discriminant <= 0) continue;
-          const float root = std::sqrt(discriminant);
-          const int z0 = std::max(lo.z() - origin.z(), int(std::ceil((-ab - root) / bb)));
-          const int z1 = std::min(hi.z() - origin.z(), int(std::floor((-ab + root) / bb)));
-          float* row = out + (((x - origin.x()) << 6) | ((y - origin.y()) << 3));
-          for (int z = z0; z <= z1; ++z) {
-            const Eigen::Vector3f q = a + float(z) * stepZ;
-            const float t = std::max(0.0f, 1 - q.squaredNorm());
-            row[z] += weight * t * t * t;
-          }
+          // |a + z stepZ|^2 < 1 for some z: else the row misses the support.
+          const float ab = a.dot(stepZ);
+          if (ab * ab - bb * (a.squaredNorm() - 1) <= 0) continue;
+          // The whole row of the leaf, branch free (voxels outside the support add 0):
+          // cheaper than finding the row's ends for the 2-3 voxels a row usually has.
+          // (Eigen evaluates the 8-float arrays with SIMD packets.)
+          Eigen::Map<Row, Eigen::Aligned16> row(out + (((x - origin.x()) << 6) | ((y - origin.y()) << 3)));
+          const Row qx = a.x() + kRowZ * stepZ.x(), qy = a.y() + kRowZ * stepZ.y(), qz = a.z() + kRowZ * stepZ.z();
+          const Row t = (1.0f - (qx * qx + qy * qy + qz * qz)).max(0.0f);
+          row += weight * t * t * t;
         }
     }
     return true;

@@ -15,10 +15,13 @@
 #include <tbb/parallel_for.h>
 
 #include <chrono>
+#include <exception>
 #include <cmath>
 #include <mutex>
 #include <set>
 #include <sstream>
+#include <thread>
+#include <time.h>
 
 namespace cascade {
 
@@ -65,23 +68,22 @@ double secondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
+/// CPU seconds of the whole process (all threads) so far.
+double processCpuSeconds() {
+  timespec now{};
+  ::clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now);
+  return double(now.tv_sec) + 1e-9 * double(now.tv_nsec);
+}
+
 void initializeOpenVdb() {
   static std::once_flag once;
   std::call_once(once, [] { openvdb::initialize(); });
 }
 
-/// Scene z-up (x, y, z) -> y-up (x, z, -y): what y-up importers turn back into z-up.
-TriangleMesh toYUp(const TriangleMesh& mesh) {
-  TriangleMesh out = mesh;
-  for (auto& v : out.vertices) v = Eigen::Vector3f(v.x(), v.z(), -v.y());
-  for (auto& n : out.normals) n = Eigen::Vector3f(n.x(), n.z(), -n.y());
-  return out;
-}
-
-void writeSurfaceVdb(const fs::path& path, const openvdb::FloatGrid& levelSet, bool withDensity,
+void writeSurfaceVdb(const fs::path& path, openvdb::FloatGrid& levelSet, bool withDensity,
                      const SurfaceOptions& options, double spacing, bool yUp) {
   openvdb::GridPtrVec grids;
-  auto surface = levelSet.deepCopy();
+  openvdb::FloatGrid::Ptr surface = levelSet.copy();  // shares the tree; own metadata and transform
   surface->setName("surface");
   surface->setGridClass(openvdb::GRID_LEVEL_SET);
   if (yUp) {  // rotate the lattice: world (x, y, z) -> (x, z, -y)
@@ -110,7 +112,7 @@ void writeSurfaceVdb(const fs::path& path, const openvdb::FloatGrid& levelSet, b
 } // namespace
 
 SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spacing,
-                               const SurfaceOptions& options, const fs::path& vdbPath) {
+                               const SurfaceOptions& options, const fs::path& vdbPath, const fs::path& objPath) {
   initializeOpenVdb();
   SurfaceResult result;
   if (options.particleSpacing > 0) spacing = options.particleSpacing;
@@ -127,6 +129,14 @@ SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spaci
   settings.halfWidth = std::max(2, options.halfWidth);
 
   auto start = Clock::now();
+  double cpuStart = processCpuSeconds();
+  auto stageDone = [&](double& seconds, double& cpuSeconds) {
+    seconds = secondsSince(start);
+    const double cpuNow = processCpuSeconds();
+    cpuSeconds = cpuNow - cpuStart;
+    start = Clock::now();
+    cpuStart = cpuNow;
+  };
   openvdb::FloatGrid::Ptr levelSet;
   if (positions.empty() || !(voxelSize > 0)) {
     levelSet = openvdb::createLevelSet<openvdb::FloatGrid>(voxelSize > 0 ? voxelSize : 1.0, settings.halfWidth);
@@ -138,37 +148,55 @@ SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spaci
     }
   }
   levelSet->setName("surface");
-  result.timings.rasterize = secondsSince(start);
+  stageDone(result.timings.rasterize, result.timings.cpu.rasterize);
 
-  start = Clock::now();
   if (!positions.empty()) surfacing::filterLevelSet(*levelSet, options.filter, options.smoothingPasses);
   result.activeVoxels = levelSet->activeVoxelCount();
-  result.timings.filter = secondsSince(start);
+  stageDone(result.timings.filter, result.timings.cpu.filter);
 
-  start = Clock::now();
+  // The level set is final: write the VDB on a thread of its own (file I/O and
+  // compression are serial in OpenVDB) while the mesh is made, cleaned and written.
+  std::exception_ptr vdbFailure;
+  std::thread vdbWriter;
+  if (!vdbPath.empty()) {
+    vdbWriter = std::thread([&] {
+      const auto writeStart = Clock::now();
+      try {
+        writeSurfaceVdb(vdbPath, *levelSet, options.writeDensity, options, spacing, options.vdbYUp);
+      } catch (...) {
+        vdbFailure = std::current_exception();
+      }
+      result.timings.vdbWrite = secondsSince(writeStart);
+    });
+  }
+  struct JoinOnExit {  // an exception below still waits for the writer
+    std::thread& thread;
+    ~JoinOnExit() {
+      if (thread.joinable()) thread.join();
+    }
+  } joinOnExit{vdbWriter};
+
   result.mesh = surfacing::levelSetToMesh(*levelSet, std::clamp(options.adaptivity, 0.0, 1.0));
-  result.timings.mesh = secondsSince(start);
+  stageDone(result.timings.mesh, result.timings.cpu.mesh);
 
-  start = Clock::now();
   surfacing::MeshCleanupSettings cleanup;
   cleanup.minComponentVolume =
       options.minComponentVolume >= 0 ? options.minComponentVolume : spacing * spacing * spacing / 8;
   cleanup.triangleBudget = options.triangleBudget;
   cleanup.remeshEdgeLength = options.remeshEdgeLength;
   surfacing::cleanupMesh(result.mesh, cleanup);
-  result.timings.cleanup = secondsSince(start);
+  stageDone(result.timings.cleanup, result.timings.cpu.cleanup);
 
-  if (!vdbPath.empty()) {
-    start = Clock::now();
-    writeSurfaceVdb(vdbPath, *levelSet, options.writeDensity, options, spacing, options.vdbYUp);
-    result.timings.write += secondsSince(start);
-  }
+  if (!objPath.empty()) writeSurfaceObj(objPath, result.mesh, options.objYUp);
+  if (vdbWriter.joinable()) vdbWriter.join();
+  stageDone(result.timings.write, result.timings.cpu.write);
+  if (vdbFailure) std::rethrow_exception(vdbFailure);
   return result;
 }
 
 void writeSurfaceObj(const fs::path& path, const TriangleMesh& mesh, bool yUp) {
   // "# up: y|z" tells Cascade's render (and people) the file's axes.
-  if (yUp) writeObj(path, toYUp(mesh), "up: y (a scene point x, y, z is stored as x, z, -y)");
+  if (yUp) writeObj(path, mesh, "up: y (a scene point x, y, z is stored as x, z, -y)", ObjAxes::ZUpToYUp);
   else writeObj(path, mesh, "up: z (scene coordinates)");
 }
 
@@ -210,14 +238,10 @@ std::vector<SurfaceFrameReport> surfaceFrames(const OutputLayout& layout, const 
           const ParticleFrame particles = readParticleFrame(input);  // InputError names the file
           report.particles = particles.size();
           SurfaceResult result = surfaceParticles(particles.position, particles.spacing, options,
-                                                  options.writeVdb ? vdbOut : fs::path());
+                                                  options.writeVdb ? vdbOut : fs::path(),
+                                                  options.writeObj ? objOut : fs::path());
           report.timings = result.timings;
           report.triangles = result.mesh.triangles.size();
-          if (options.writeObj) {
-            const auto start = Clock::now();
-            writeSurfaceObj(objOut, result.mesh, options.objYUp);
-            report.timings.write += secondsSince(start);
-          }
         }
       } catch (const InputError& error) {
         report.error = error.what();

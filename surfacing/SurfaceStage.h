@@ -95,9 +95,19 @@ struct SurfaceOptions {
   bool force = false;        ///< rewrite outputs that already exist
 };
 
-/// Seconds spent per stage of one frame.
+/// Seconds spent per stage of one frame. The VDB is written by a thread of its
+/// own while the mesh is extracted, cleaned and written, so `write` is the time
+/// the frame spent writing after the clean-up (the OBJ, and waiting for the VDB
+/// if it was not done yet) and total() is the frame's wall time; `vdbWrite` is
+/// how long the VDB writer ran (overlapped, not part of total()).
 struct SurfaceTimings {
   double rasterize = 0, filter = 0, mesh = 0, cleanup = 0, write = 0;
+  double vdbWrite = 0;
+  /// Process CPU seconds (all threads) during each stage; the VDB writer's count
+  /// in the stages it overlapped (mesh, cleanup, write).
+  struct Cpu {
+    double rasterize = 0, filter = 0, mesh = 0, cleanup = 0, write = 0;
+  } cpu;
   double total() const { return rasterize + filter + mesh + cleanup + write; }
 };
 
@@ -111,10 +121,12 @@ struct SurfaceResult {
 };
 
 /// Surfaces particle positions in memory and, if `vdbPath` is not empty, writes the
-/// level set (and density) there atomically. `spacing` 0 means estimate it.
+/// level set (and density) there atomically; if `objPath` is not empty, also the
+/// mesh (writeSurfaceObj with options.objYUp). `spacing` 0 means estimate it.
 SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spacing,
                                const SurfaceOptions& options,
-                               const std::filesystem::path& vdbPath = {});
+                               const std::filesystem::path& vdbPath = {},
+                               const std::filesystem::path& objPath = {});
 
 /// Writes a mesh as OBJ, atomically, y-up ((x, y, z) -> (x, z, -y)) if `yUp`.
 void writeSurfaceObj(const std::filesystem::path& path, const TriangleMesh& mesh, bool yUp);

@@ -12,6 +12,8 @@
 #include <memory>
 #include <string_view>
 
+#include <tbb/parallel_pipeline.h>
+
 namespace cascade {
 
 void TriangleMesh::computeNormals() {
@@ -43,95 +45,163 @@ void TriangleMesh::append(const TriangleMesh& other) {
 
 namespace {
 
-/// Appends text to a growing buffer flushed to a FILE in large blocks.
-class BufferedWriter {
-public:
-  explicit BufferedWriter(std::FILE* file) : mFile(file) { mBuffer.reserve(kBlock + 256); }
-  ~BufferedWriter() { flush(); }
-  void put(std::string_view text) {
-    mBuffer.append(text);
-    if (mBuffer.size() >= kBlock) flush();
+/// Decimal digits of an index, two at a time (the usual digit-pair table).
+char* putIndex(char* out, std::uint64_t value) {
+  static constexpr char kPairs[] =
+      "0001020304050607080910111213141516171819202122232425262728293031323334353637383940414243444546474849"
+      "5051525354555657585960616263646566676869707172737475767778798081828384858687888990919293949596979899";
+  char buffer[24];
+  char* end = buffer + sizeof buffer;
+  char* p = end;
+  while (value >= 100) {
+    const unsigned pair = unsigned(value % 100) * 2;
+    value /= 100;
+    *--p = kPairs[pair + 1];
+    *--p = kPairs[pair];
   }
-  void putFloat(float value) {
-    char buffer[32];
-    const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
-    mBuffer.append(buffer, result.ptr);
+  if (value >= 10) {
+    *--p = kPairs[value * 2 + 1];
+    *--p = kPairs[value * 2];
+  } else {
+    *--p = char('0' + value);
   }
-  void putIndex(std::uint64_t value) {
-    char buffer[24];
-    const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
-    mBuffer.append(buffer, result.ptr);
-  }
-  void flush() {
-    if (!mBuffer.empty() && std::fwrite(mBuffer.data(), 1, mBuffer.size(), mFile) != mBuffer.size())
-      mFailed = true;
-    mBuffer.clear();
-  }
-  bool failed() const { return mFailed; }
+  std::memcpy(out, p, std::size_t(end - p));
+  return out + (end - p);
+}
 
-private:
-  static constexpr std::size_t kBlock = 1 << 20;
-  std::FILE* mFile;
-  std::string mBuffer;
-  bool mFailed = false;
+char* putFloat(char* out, float value) { return std::to_chars(out, out + 32, value).ptr; }
+
+/// "tag x y z\n" with the axis mapping applied.
+char* putVector(char* out, const char* tag, std::size_t tagLength, const Eigen::Vector3f& v, ObjAxes axes) {
+  std::memcpy(out, tag, tagLength);
+  out += tagLength;
+  const float c[3] = {v.x(), axes == ObjAxes::ZUpToYUp ? v.z() : v.y(), axes == ObjAxes::ZUpToYUp ? -v.y() : v.z()};
+  for (float value : c) {
+    *out++ = ' ';
+    out = putFloat(out, value);
+  }
+  *out++ = '\n';
+  return out;
+}
+
+/// One block of lines of the file: [begin, end) of one section.
+struct ObjBlock {
+  enum Section { Vertices, Normals, Faces } section = Vertices;
+  std::size_t begin = 0, end = 0;
+  std::string text;
 };
 
-void putVector(BufferedWriter& out, const char* tag, const Eigen::Vector3f& v) {
-  out.put(tag);
-  for (int k = 0; k < 3; ++k) {
-    out.put(" ");
-    out.putFloat(v[k]);
-  }
-  out.put("\n");
-}
+constexpr std::size_t kObjBlockLines = 32768;
+constexpr std::size_t kMaxVectorLine = 4 + 3 * 33 + 1;    // "vn" and three floats
+constexpr std::size_t kMaxFaceLine = 2 + 3 * (2 * 20 + 3) + 1;
 
 } // namespace
 
 void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh) { writeObj(path, mesh, std::string()); }
 
-void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const std::string& comment) {
+void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const std::string& comment,
+              ObjAxes axes) {
+  const bool withNormals = mesh.normals.size() == mesh.vertices.size() && !mesh.normals.empty();
+  // Group lines: "g NAME" before triangle groups[g].begin, for groups in order
+  // (a group starting before the previous one, or past the end, ends the list).
+  std::vector<std::pair<std::size_t, std::size_t>> groupLines;  // (triangle, group)
+  for (std::size_t g = 0, previous = 0; g < mesh.groups.size(); ++g) {
+    const std::size_t begin = mesh.groups[g].begin;
+    if (begin < previous || begin >= mesh.triangles.size()) break;
+    groupLines.emplace_back(begin, g);
+    previous = begin;
+  }
+
+  std::string header = "# Cascade triangle mesh: " + std::to_string(mesh.vertices.size()) + " vertices, " +
+                       std::to_string(mesh.triangles.size()) + " triangles\n";
+  for (std::size_t begin = 0; begin < comment.size();) {
+    const std::size_t end = std::min(comment.find('\n', begin), comment.size());
+    header += "# ";
+    header.append(comment, begin, end - begin);
+    header += "\n";
+    begin = end + 1;
+  }
+
+  // The blocks of the file, in order.
+  std::vector<ObjBlock> blocks;
+  auto addSection = [&](ObjBlock::Section section, std::size_t count) {
+    for (std::size_t begin = 0; begin < count; begin += kObjBlockLines)
+      blocks.push_back({section, begin, std::min(count, begin + kObjBlockLines), {}});
+  };
+  addSection(ObjBlock::Vertices, mesh.vertices.size());
+  if (withNormals) addSection(ObjBlock::Normals, mesh.normals.size());
+  addSection(ObjBlock::Faces, mesh.triangles.size());
+
+  auto format = [&](ObjBlock& block) {
+    std::size_t capacity = (block.end - block.begin) * (block.section == ObjBlock::Faces ? kMaxFaceLine : kMaxVectorLine);
+    if (block.section == ObjBlock::Faces)
+      for (const auto& group : mesh.groups) capacity += group.name.size() + 3;
+    block.text.resize(capacity);
+    char* out = block.text.data();
+    switch (block.section) {
+      case ObjBlock::Vertices:
+        for (std::size_t i = block.begin; i < block.end; ++i) out = putVector(out, "v", 1, mesh.vertices[i], axes);
+        break;
+      case ObjBlock::Normals:
+        for (std::size_t i = block.begin; i < block.end; ++i) out = putVector(out, "vn", 2, mesh.normals[i], axes);
+        break;
+      case ObjBlock::Faces: {
+        auto group = std::lower_bound(groupLines.begin(), groupLines.end(), std::make_pair(block.begin, std::size_t(0)));
+        for (std::size_t t = block.begin; t < block.end; ++t) {
+          for (; group != groupLines.end() && group->first == t; ++group) {
+            const std::string& name = mesh.groups[group->second].name;
+            *out++ = 'g';
+            *out++ = ' ';
+            std::memcpy(out, name.data(), name.size());
+            out += name.size();
+            *out++ = '\n';
+          }
+          *out++ = 'f';
+          for (auto index : mesh.triangles[t]) {
+            *out++ = ' ';
+            out = putIndex(out, std::uint64_t(index) + 1);
+            if (withNormals) {
+              *out++ = '/';
+              *out++ = '/';
+              out = putIndex(out, std::uint64_t(index) + 1);
+            }
+          }
+          *out++ = '\n';
+        }
+        break;
+      }
+    }
+    block.text.resize(std::size_t(out - block.text.data()));
+  };
+
   writeFileAtomically(path, [&](const std::filesystem::path& temp) {
     std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(temp.c_str(), "wb"), &std::fclose);
     if (!file) throw std::runtime_error(path.string() + ": cannot write");
-    BufferedWriter out(file.get());
-    out.put("# Cascade triangle mesh: ");
-    out.putIndex(mesh.vertices.size());
-    out.put(" vertices, ");
-    out.putIndex(mesh.triangles.size());
-    out.put(" triangles\n");
-    for (std::size_t begin = 0; begin < comment.size();) {
-      const std::size_t end = std::min(comment.find('\n', begin), comment.size());
-      out.put("# ");
-      out.put(std::string_view(comment).substr(begin, end - begin));
-      out.put("\n");
-      begin = end + 1;
-    }
-    for (const auto& v : mesh.vertices) putVector(out, "v", v);
-    const bool withNormals = mesh.normals.size() == mesh.vertices.size() && !mesh.normals.empty();
-    if (withNormals)
-      for (const auto& n : mesh.normals) putVector(out, "vn", n);
-    std::size_t nextGroup = 0;
-    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-      while (nextGroup < mesh.groups.size() && mesh.groups[nextGroup].begin == t) {
-        out.put("g ");
-        out.put(mesh.groups[nextGroup].name);
-        out.put("\n");
-        ++nextGroup;
-      }
-      out.put("f");
-      for (auto index : mesh.triangles[t]) {
-        out.put(" ");
-        out.putIndex(index + 1);
-        if (withNormals) {
-          out.put("//");
-          out.putIndex(index + 1);
-        }
-      }
-      out.put("\n");
-    }
-    out.flush();
-    if (out.failed() || std::fflush(file.get()) != 0)
-      throw std::runtime_error(path.string() + ": write failed");
+    std::setvbuf(file.get(), nullptr, _IONBF, 0);  // whole blocks go straight to write(2)
+    bool failed = std::fwrite(header.data(), 1, header.size(), file.get()) != header.size();
+    // Format blocks in parallel, write them in file order; a few blocks in flight bound the memory.
+    std::size_t next = 0;
+    tbb::parallel_pipeline(
+        16,
+        tbb::make_filter<void, ObjBlock*>(tbb::filter_mode::serial_in_order,
+                                          [&](tbb::flow_control& control) -> ObjBlock* {
+                                            if (next == blocks.size()) {
+                                              control.stop();
+                                              return nullptr;
+                                            }
+                                            return &blocks[next++];
+                                          }) &
+            tbb::make_filter<ObjBlock*, ObjBlock*>(tbb::filter_mode::parallel,
+                                                   [&](ObjBlock* block) {
+                                                     format(*block);
+                                                     return block;
+                                                   }) &
+            tbb::make_filter<ObjBlock*, void>(tbb::filter_mode::serial_in_order, [&](ObjBlock* block) {
+              if (!failed && std::fwrite(block->text.data(), 1, block->text.size(), file.get()) != block->text.size())
+                failed = true;
+              std::string().swap(block->text);
+            }));
+    if (failed || std::fflush(file.get()) != 0) throw std::runtime_error(path.string() + ": write failed");
   });
 }
 

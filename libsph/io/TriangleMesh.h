@@ -35,10 +35,21 @@ struct TriangleMesh {
   void append(const TriangleMesh& other);
 };
 
-/// Writes OBJ ("v", "vn", "g", "f a//a b//b c//c"), atomically.
+/// How writeObj maps the mesh's coordinates (vertices and normals) to the file's.
+enum class ObjAxes {
+  AsIs,      ///< stored as they are
+  ZUpToYUp,  ///< a z-up point (x, y, z) stored as (x, z, -y), for y-up importers
+};
+
+/// Writes OBJ ("v", "vn", "g", "f a//a b//b c//c"), atomically. Numbers are the
+/// shortest text that reads back to the same float (std::to_chars). Blocks of
+/// lines are formatted in parallel (TBB) and written in order, so the file is the
+/// same as a serial writer's.
 void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh);
-/// The same with extra comment lines after the first ("# up: y"; one per '\n'-separated line).
-void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const std::string& comment);
+/// The same with extra comment lines after the first ("# up: y"; one per '\n'-separated
+/// line), and the coordinates mapped by `axes` on the way out.
+void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const std::string& comment,
+              ObjAxes axes = ObjAxes::AsIs);
 
 /// Reads OBJ written by writeObj or another tool (v, vn, g/o, f with any of
 /// the index forms, polygons fanned into triangles, negative indices).

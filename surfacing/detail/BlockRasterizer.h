@@ -18,6 +18,7 @@
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -121,7 +122,7 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
   std::vector<LeafT*> leaves(origins.size(), nullptr);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, origins.size(), 8), [&](const auto& range) {
     std::vector<std::uint32_t> candidates;
-    std::vector<float> values(LeafT::SIZE);
+    alignas(64) std::array<float, LeafT::SIZE> values;  // accumulate may use aligned SIMD rows
     for (std::size_t b = range.begin(); b != range.end(); ++b) {
       candidates.clear();
       for (std::size_t i = leafStart[b]; i < leafStart[b + 1]; ++i)

@@ -95,26 +95,31 @@ BenchTable benchSurface() {
     std::size_t triangles;
   };
   std::vector<Row> rows;
+  // CASCADE_BENCH_SURFACE=anisotropic,smooth,union,vdb_tool (default: all) picks the rows, for profiling.
+  const char* only = std::getenv("CASCADE_BENCH_SURFACE");
+  const std::string selected = only ? "," + std::string(only) + "," : ",anisotropic,smooth,union,vdb_tool,";
+  auto wanted = [&](const std::string& name) { return selected.find("," + name + ",") != std::string::npos; };
   for (SurfaceMethod method :
        {SurfaceMethod::AnisotropicKernels, SurfaceMethod::SmoothSpheres, SurfaceMethod::UnionOfSpheres}) {
+    if (!wanted(surfaceMethodName(method))) continue;
     SurfaceOptions options;
     options.method = method;
     options.voxelSize = kVoxel;
     const std::clock_t cpuStart = std::clock();
-    SurfaceResult result = surfaceParticles(points, kSpacing, options, dir / "surface.vdb");
-    const auto start = std::chrono::steady_clock::now();
-    writeSurfaceObj(dir / "fluid.obj", result.mesh, true);
-    result.timings.write += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    SurfaceResult result = surfaceParticles(points, kSpacing, options, dir / "surface.vdb", dir / "fluid.obj");
     const double cpu = double(std::clock() - cpuStart) / CLOCKS_PER_SEC;
     rows.push_back({surfaceMethodName(method), result.timings, cpu, result.mesh.triangles.size()});
     std::cerr << "bench surface: " << rows.back().method << " " << milliseconds(result.timings.total())
-              << " ms\n";
+              << " ms (VDB writer " << milliseconds(result.timings.vdbWrite) << " ms, overlapped); CPU ms by stage: "
+              << milliseconds(result.timings.cpu.rasterize) << " " << milliseconds(result.timings.cpu.filter) << " "
+              << milliseconds(result.timings.cpu.mesh) << " " << milliseconds(result.timings.cpu.cleanup) << " "
+              << milliseconds(result.timings.cpu.write) << "\n";
   }
 
   // vdb_tool on the same points, as a PLY file (its own reading and writing included).
   double vdbToolMs = -1, vdbToolCpuMs = -1;
   std::size_t vdbToolTriangles = 0;
-  {
+  if (wanted("vdb_tool")) {
     ParticleFrame frame;
     frame.position = points;
     writeParticlePly(dir / "pts.ply", frame);
@@ -144,8 +149,9 @@ BenchTable benchSurface() {
                   milliseconds(row.timings.cleanup), milliseconds(row.timings.write), total,
                   milliseconds(row.cpu), (long long)row.triangles, vdbToolMs > 0 ? std::round(vdbToolMs / total * 100) / 100 : 0.0});
   }
-  table.addRow({std::string("vdb_tool"), (long long)points.size(), kVoxel, 0.0, 0.0, 0.0, 0.0, 0.0, vdbToolMs,
-                std::round(vdbToolCpuMs), (long long)vdbToolTriangles, 1.0});
+  if (wanted("vdb_tool"))
+    table.addRow({std::string("vdb_tool"), (long long)points.size(), kVoxel, 0.0, 0.0, 0.0, 0.0, 0.0, vdbToolMs,
+                  std::round(vdbToolCpuMs), (long long)vdbToolTriangles, 1.0});
   fs::remove_all(dir);
   return table;
 }
