@@ -25,8 +25,9 @@ double millisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-constexpr Real kWarmStartFactor = Real(0.5);     // B&K 2017 / SPlisHSPlasH: half the last stiffness
-constexpr int kMinDensityIterations = 2;
+constexpr Real kDivergenceWarmStart = Real(0.5);  // divergence solve: half the last stiffness (SPlisHSPlasH)
+constexpr Real kDensityWarmStart = Real(0.5);     // constant-density solve: half as well (1 oscillates, measured)
+constexpr int kMinDensityIterations = 1;          // sweeps after the warm start
 // A step removes at most this much of a compression already there (particles
 // started overlapping, or pushed together by an external impulse): they part
 // over several steps instead of at error * spacing / dt.
@@ -157,17 +158,19 @@ void TimeStepDFSPH::prepare(StepContext& c) {
   }
   const Real volume = mRestVolume;
   const NeighborLists& nl = c.neighbors;
+  const std::vector<MirrorMap>& maps = boundary.mirrors();
+  const bool noSlip = c.settings.boundary.slip == MirrorSlip::NoSlip;
 
   // Ghosts: for each layer particle, the mirror images (of itself and its neighbours) within h.
   const std::vector<std::uint32_t>& layer = boundary.layer();
-  const bool mirrors = boundary.mirrorOffsets().size() == n + 1 && !boundary.mirrors().empty();
+  const bool mirrors = boundary.mirrorOffsets().size() == n + 1 && !maps.empty();
   mLayerIndex.assign(n, kNotInLayer);
   mGhostOffsets.assign(1, 0);
   mGhostSource.clear();
   mGhostMap.clear();
   mGhostGradient.clear();
+  mGhostVelocityGradient.clear();
   if (mirrors) {
-    const std::vector<MirrorMap>& maps = boundary.mirrors();
     const std::vector<std::uint32_t>& mapOffsets = boundary.mirrorOffsets();
     auto forEachGhost = [&](std::uint32_t i, auto&& visit) {
       const Vec3r xi = particles.position[i];
@@ -193,43 +196,90 @@ void TimeStepDFSPH::prepare(StepContext& c) {
     mGhostSource.resize(total);
     mGhostMap.resize(total);
     mGhostGradient.resize(total);
+    mGhostVelocityGradient.resize(total);
     mGhostValue.resize(total);
+    mGhostOffset.resize(total);
     tbb::parallel_for(std::size_t(0), layer.size(), [&](std::size_t k) {
       std::uint32_t g = mGhostOffsets[k];
       forEachGhost(layer[k], [&](std::uint32_t j, std::uint32_t m, const Vec3r& r) {
         mGhostSource[g] = j;
         mGhostMap[g] = m;
-        mGhostGradient[g] = volume * kernel.gradient(r);
+        const Vec3r gradient = volume * kernel.gradient(r);
+        mGhostGradient[g] = gradient;
+        // The image's velocity is L v_j (L = -I for no slip): (L v_j) . G = v_j . (L^T G).
+        mGhostVelocityGradient[g] = noSlip ? Vec3r(-gradient) : Vec3r(maps[m].linear.transpose() * gradient);
         mGhostValue[g] = volume * kernel.value(r.norm());
+        mGhostOffset[g] = r;
         ++g;
       });
     });
   }
 
-  mPairGradient.resize(nl.totalCount());
+  // Pair terms: the neighbours strictly inside the support (grad W != 0), packed at the
+  // start of each neighbour-list row; the rest of the row is unused.
+  mPairs.resize(nl.totalCount());
+  mPairCount.resize(n);
+  mGradientSum.resize(n);
   mFactor.resize(n);
   mDensityRatio.resize(n);
   mNeighborCount.resize(n);
+  mRate.resize(n);
+  mGravityRate.resize(n);
+  c.acceleration.resize(n);
   const Real selfValue = kernel.value(0);
   const Real restDensity = c.settings.fluid.restDensity;
   const Real floor = mFactorFloor;
-  const std::vector<MirrorMap>& maps = boundary.mirrors();
-  const bool noSlip = c.settings.boundary.slip == MirrorSlip::NoSlip;
+  const std::vector<Vec3r>& velocity = particles.velocity;
+  const SolverSettings& solver = c.settings.solver;
+  const Vec3r gravity = solver.gravity;
+  const Real nu = c.settings.fluid.viscosity / c.settings.fluid.restDensity;
+  const Real epsilon2 = Real(0.01) * h2;
+  // Monaghan (1992) artificial viscosity Pi_ij = -alpha h c_ref (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2)
+  // for approaching pairs, with c_ref = 10 x the scene's expected speed, the speed of sound of
+  // the default WCSPH (DFSPH has none), so both solvers get the same numerical viscosity.
+  const Real artificial = solver.artificialViscosity * h * Real(10) * c.constants.expectedSpeed;
+  // Viscous factor per pair: standard SPH viscosity (Morris 1997 form, as in SPlisHSPlasH)
+  // 2 (d + 2) nu = 10 nu, plus the artificial term for approaching pairs.
+  auto viscousFactor = [&](Real vx) { return Real(10) * nu + (vx < 0 ? artificial : Real(0)); };
+  std::vector<Vec3r>& acceleration = c.acceleration;
   forEachParticle(n, [&](std::size_t i) {
-    const Vec3r xi = particles.position[i];
+    const Vec3r xi = particles.position[i], vi = velocity[i];
     Real density = volume * selfValue;
     Vec3r gradientSum = Vec3r::Zero();
     Real gradientSquares = 0;
+    Real rate = 0;  // sum_j c_ij v_j . (x_i - x_j)
+    Vec3r viscous = Vec3r::Zero();
+    PairTerm* pair = mPairs.data() + nl.offsets[i];
+    std::uint32_t count = 0;
     for (std::uint32_t k = nl.offsets[i]; k < nl.offsets[i + 1]; ++k) {
-      const Vec3r r = xi - particles.position[nl.indices[k]];
-      density += volume * kernel.value(r.norm());
-      const Vec3r g = volume * kernel.gradient(r);
-      mPairGradient[k] = g;
+      const std::uint32_t j = nl.indices[k];
+      const Vec3r r = xi - particles.position[j];
+      const Real r2 = r.squaredNorm();
+      if (!(r2 < h2) || !(r2 > Real(0))) continue;
+      // Cubic spline W and grad W = W'(|r|) r / |r| (both branches, then a select), with
+      // one square root and one division for 1 / |r| and 1 / (|r|^2 + 0.01 h^2).
+      const Real length = std::sqrt(r2), q = length * kernel.inverseSupport, d = Real(1) - q;
+      const bool inner = q <= Real(0.5);
+      const Real value = kernel.valueCoeff * (inner ? Real(6) * q * q * (q - Real(1)) + Real(1) : Real(2) * d * d * d);
+      const Real slope = kernel.gradientCoeff * (inner ? q * (Real(3) * q - Real(2)) : -d * d);
+      const Real shifted = r2 + epsilon2;
+      const Real inverse = Real(1) / (length * shifted);
+      density += volume * value;
+      const Real scale = volume * slope * shifted * inverse;  // V grad W_ij = scale (x_i - x_j)
+      const Vec3r g = scale * r;
+      pair[count++] = PairTerm{j, g.x(), g.y(), g.z()};
       gradientSum += g;
-      gradientSquares += g.squaredNorm();
+      gradientSquares += scale * scale * r2;
+      const Vec3r& vj = velocity[j];
+      rate += vj.dot(g);
+      // a_i += sum_j F (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2) V grad W_ij (rest volume V: the
+      // density is held at rho_0; a free-surface particle's summed density is only a kernel deficit)
+      const Real vx = (vi - vj).dot(r);
+      viscous += (viscousFactor(vx) * vx * length * inverse) * g;
     }
-    std::uint32_t count = nl.count(i);
+    mPairCount[i] = count;
     Real denominator;
+    Real gravityRate = 0;
     const std::uint32_t l = mLayerIndex[i];
     if (l == kNotInLayer) {
       denominator = gradientSum.squaredNorm() + gradientSquares;  // B&K 2017 eq. 10
@@ -240,14 +290,24 @@ void TimeStepDFSPH::prepare(StepContext& c) {
       // velocity-change direction (own images counted twice).
       Vec3r change = gradientSum;
       for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g) {
+        const Vec3r& G = mGhostGradient[g];
+        const std::uint32_t j = mGhostSource[g];
         density += mGhostValue[g];
-        gradientSum += mGhostGradient[g];
-        if (mGhostSource[g] == i) {
-          change += Real(2) * mGhostGradient[g];
+        gradientSum += G;
+        if (j == i) {
+          change += Real(2) * G;
         } else {
-          change += mGhostGradient[g];
-          gradientSquares += mGhostGradient[g].squaredNorm();
+          change += G;
+          gradientSquares += G.squaredNorm();
         }
+        rate += velocity[j].dot(mGhostVelocityGradient[g]);
+        gravityRate += gravity.dot(G - mGhostVelocityGradient[g]);
+        // Mirror particles in the viscous terms with the image's velocity (L v_j; -v_j for no
+        // slip): a no-slip wall exerts friction and any wall damps approaching motion.
+        const Vec3r& x = mGhostOffset[g];
+        const Vec3r image = noSlip ? Vec3r(-velocity[j]) : Vec3r(maps[mGhostMap[g]].linear * velocity[j]);
+        const Real vx = (vi - image).dot(x);
+        viscous += (viscousFactor(vx) * vx / (x.squaredNorm() + epsilon2)) * G;
       }
       denominator = gradientSum.dot(change) + gradientSquares;
       for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g)
@@ -257,11 +317,61 @@ void TimeStepDFSPH::prepare(StepContext& c) {
         }
       count += mGhostOffsets[l + 1] - mGhostOffsets[l];
     }
+    mGradientSum[i] = gradientSum;  // over fluid and mirror neighbours
+    mRate[i] = vi.dot(gradientSum) - rate;  // D(rho_i/rho_0)/Dt of the step's initial velocities
+    mGravityRate[i] = gravityRate;          // the part of D/Dt (D(rho_i/rho_0)/Dt) due to gravity (mirrors only)
+    acceleration[i] = gravity + viscous;
     mFactor[i] = denominator > floor ? Real(1) / denominator : Real(0);
     mDensityRatio[i] = density;
     mNeighborCount[i] = count;
     particles.density[i] = restDensity * density;
   });
+}
+
+/// Velocity update of B&K 2017 alg. 2/3 for the stiffness increments `step`, a mirror
+/// particle taking the increment of its source:
+/// v_i -= dt sum_j V (s_i + s_j) grad W_ij = dt (s_i G_i + sum_j s_j V grad W_ij)
+/// over fluid and mirror neighbours (G_i = sum_j V grad W_ij); kappa += step.
+void TimeStepDFSPH::applyStep(std::vector<Vec3r>& velocity, std::vector<Real>& kappa, Real dt) {
+  const std::size_t n = velocity.size();
+  const Real* step = mKappaStep.data();
+  forEachParticle(n, [&](std::size_t i) {
+    const PairTerm* pair = mPairs.data() + mPairOffsets[i];
+    const std::uint32_t count = mPairCount[i];
+    Real x = 0, y = 0, z = 0;
+    for (std::uint32_t k = 0; k < count; ++k) {
+      const Real sj = step[pair[k].neighbor];
+      x += sj * pair[k].gx;
+      y += sj * pair[k].gy;
+      z += sj * pair[k].gz;
+    }
+    Vec3r dv(x, y, z);
+    const std::uint32_t l = mLayerIndex[i];
+    if (l != kNotInLayer)
+      for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g)
+        dv += step[mGhostSource[g]] * mGhostGradient[g];
+    dv += step[i] * mGradientSum[i];
+    velocity[i] -= dt * dv;
+    kappa[i] += step[i];
+  });
+}
+
+/// D(rho_i / rho_0)/Dt = sum_j V (v_i - v_j) . grad W_ij = v_i . G_i - sum_j v_j . V grad W_ij
+/// over fluid and mirror neighbours (a mirror moves with its source, its velocity mirrored
+/// (free slip) or reversed (no slip)).
+Real TimeStepDFSPH::densityRate(const std::vector<Vec3r>& velocity, std::size_t i) const {
+  const PairTerm* pair = mPairs.data() + mPairOffsets[i];
+  const std::uint32_t count = mPairCount[i];
+  Real rate = 0;
+  for (std::uint32_t k = 0; k < count; ++k) {
+    const Vec3r& vj = velocity[pair[k].neighbor];
+    rate += vj.x() * pair[k].gx + vj.y() * pair[k].gy + vj.z() * pair[k].gz;
+  }
+  const std::uint32_t l = mLayerIndex[i];
+  if (l != kNotInLayer)
+    for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g)
+      rate += velocity[mGhostSource[g]].dot(mGhostVelocityGradient[g]);
+  return velocity[i].dot(mGradientSum[i]) - rate;
 }
 
 void TimeStepDFSPH::advance(StepContext& c, Real dt) {
@@ -272,111 +382,61 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   std::fill(c.obstacleForce.begin(), c.obstacleForce.end(), Vec3d::Zero());
   if (n == 0) return;
   const SolverSettings& solver = c.settings.solver;
-  const NeighborLists& nl = c.neighbors;
+  mPairOffsets = c.neighbors.offsets.data();
 
   auto start = Clock::now();
   prepare(c);
   c.timings.density += millisecondsSince(start);
 
   start = Clock::now();
-  mResidual.resize(n);
   mKappaStep.resize(n);
   std::vector<Vec3r>& velocity = particles.velocity;
-
   const std::vector<MirrorMap>& maps = c.boundary.mirrors();
-  const bool noSlip = c.settings.boundary.slip == MirrorSlip::NoSlip;
-  // Velocity update of B&K 2017 alg. 2/3 for the stiffnesses in `kappa`, a mirror
-  // particle taking the stiffness of its source:
-  // v_i -= dt sum_j V (kappa_i + kappa_j) grad W_ij (fluid and mirror neighbours).
-  auto applyKappa = [&](const std::vector<Real>& kappa) {
-    forEachParticle(n, [&](std::size_t i) {
-      const Real ki = kappa[i];
-      Vec3r dv = Vec3r::Zero();
-      for (std::uint32_t k = nl.offsets[i]; k < nl.offsets[i + 1]; ++k) {
-        const Real sum = ki + kappa[nl.indices[k]];
-        if (sum != Real(0)) dv += sum * mPairGradient[k];
-      }
-      const std::uint32_t l = mLayerIndex[i];
-      if (l != kNotInLayer)
-        for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g)
-          dv += (ki + kappa[mGhostSource[g]]) * mGhostGradient[g];
-      velocity[i] -= dt * dv;
-    });
-  };
-  // D(rho_i / rho_0)/Dt = sum_j V (v_i - v_j) . grad W_ij over fluid and mirror neighbours
-  // (a mirror moves with its source, velocity mirrored (free slip) or reversed (no slip)).
-  auto densityRate = [&](std::size_t i) {
-    const Vec3r vi = velocity[i];
-    Real rate = 0;
-    for (std::uint32_t k = nl.offsets[i]; k < nl.offsets[i + 1]; ++k)
-      rate += (vi - velocity[nl.indices[k]]).dot(mPairGradient[k]);
-    const std::uint32_t l = mLayerIndex[i];
-    if (l != kNotInLayer)
-      for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g) {
-        const Vec3r& vj = velocity[mGhostSource[g]];
-        const Vec3r mirrored = noSlip ? Vec3r(-vj) : Vec3r(maps[mGhostMap[g]].linear * vj);
-        rate += (vi - mirrored).dot(mGhostGradient[g]);
-      }
-    return rate;
-  };
-  // Divergence residual (relative density change per second), compression only.
-  auto divergenceResidual = [&](std::size_t i) -> double {
-    Real r = mNeighborCount[i] < kMinDivergenceNeighbors ? Real(0) : std::max(densityRate(i), Real(0));
-    mResidual[i] = r;
-    return r;
-  };
-  // A step much shorter than the CFL step (the Simulation lands on frame and probe
-  // times) removes only its share dt / dt_cfl of the density error already there,
-  // not all of it within dt (that would need speeds of error * spacing / dt).
-  double maxSpeed2 = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, n, 4096), 0.0,
-      [&](const auto& range, double m) {
-        for (std::size_t i = range.begin(); i != range.end(); ++i) m = std::max(m, double(velocity[i].squaredNorm()));
-        return m;
-      },
-      [](double a, double b) { return std::max(a, b); });
-  // Reference: the CFL step, bounded by the last regular step (the settings' bounds
-  // are changed by the Simulation for the shortened step).
-  double reference = maxSpeed2 > 0 ? double(solver.cflFactor) * c.constants.supportRadius / std::sqrt(maxSpeed2)
-                                   : std::numeric_limits<double>::infinity();
-  if (mRegularStep > 0) reference = std::min(reference, mRegularStep);
-  const bool shortStep = std::isfinite(reference) && double(dt) < 0.5 * reference;
-  const Real errorShare = shortStep ? static_cast<Real>(double(dt) / reference) : Real(1);
-  if (!shortStep) mRegularStep = dt;
-  // Predicted relative compression rho*/rho_0 - 1 >= 0.
-  auto densityResidual = [&](std::size_t i) -> double {
-    const Real existing = std::min(errorShare * (mDensityRatio[i] - Real(1)), kMaxErrorPerStep);
-    const Real r = std::max(existing + dt * densityRate(i), Real(0));
-    mResidual[i] = r;
-    return r;
-  };
-  const int maxIterations = std::max(1, solver.maxIterations);
 
-  // A short step's stiffnesses are not those of a regular step: keep the warm starts.
+  // A step the Simulation shortened to land on a frame or probe time (it then sets
+  // the step's upper bound to the remaining time: dt == maxTimeStep) and that is much
+  // shorter than the last regular step removes only its share dt / dt_regular of the
+  // density error already there, not all of it within dt (that would need speeds of
+  // error * spacing / dt), and keeps the warm starts of the regular steps.
+  const bool shortStep = dt == solver.maxTimeStep && mRegularStep > 0 && double(dt) < 0.5 * mRegularStep;
+  const Real errorShare = shortStep ? static_cast<Real>(double(dt) / mRegularStep) : Real(1);
+  if (!shortStep) mRegularStep = dt;
   std::vector<Real> savedDensityKappa, savedDivergenceKappa;
   if (shortStep) {
     savedDensityKappa = mDensityKappa;
     savedDivergenceKappa = mDivergenceKappa;
   }
+  const int maxIterations = std::max(1, solver.maxIterations);
+
+  // Each solve (Jacobi, compression only: kappa_i += max(r_i, 0) alpha_i / dt^k): the
+  // warm start as the first increment, then sweeps of (apply the increments) and
+  // (residuals, next increments, error).
 
   // --- 2. divergence-free solve (B&K 2017 alg. 2) ---
   {
-    double error = deterministicSum(n, divergenceResidual);
-    // Warm start where the velocity field still compresses.
+    const Real inverseDt = Real(1) / dt;
+    // Residual: relative density change per second, compression only (0 at the free surface,
+    // B&K 2017); the rate itself is kept (mRate) for the density solve's warm start.
+    auto sweep = [&](std::size_t i) -> double {
+      const Real rate = densityRate(velocity, i);
+      mRate[i] = rate;
+      const Real r = mNeighborCount[i] < kMinDivergenceNeighbors ? Real(0) : std::max(rate, Real(0));
+      mKappaStep[i] = r * mFactor[i] * inverseDt;
+      return double(r);
+    };
+    // Warm start where the velocity field compresses (rates from prepare()).
     forEachParticle(n, [&](std::size_t i) {
-      mDivergenceKappa[i] = mResidual[i] > 0 ? kWarmStartFactor * mDivergenceKappa[i] : Real(0);
+      const bool compressing = mNeighborCount[i] >= kMinDivergenceNeighbors && mRate[i] > 0;
+      mKappaStep[i] = compressing ? kDivergenceWarmStart * mDivergenceKappa[i] : Real(0);
+      mDivergenceKappa[i] = 0;
     });
-    applyKappa(mDivergenceKappa);
-    error = deterministicSum(n, divergenceResidual);
+    applyStep(velocity, mDivergenceKappa, dt);
+    double error = deterministicSum(n, sweep);
     const double tolerance = double(solver.divergenceTolerance) / double(dt) * double(n);
     int iterations = 0;
-    while (iterations < maxIterations && (iterations < 1 || error > tolerance)) {
-      forEachParticle(n, [&](std::size_t i) {
-        mKappaStep[i] = mResidual[i] * mFactor[i] / dt;
-        mDivergenceKappa[i] += mKappaStep[i];
-      });
-      applyKappa(mKappaStep);
-      error = deterministicSum(n, divergenceResidual);
+    while (iterations < maxIterations && error > tolerance) {
+      applyStep(velocity, mDivergenceKappa, dt);
+      error = deterministicSum(n, sweep);
       ++iterations;
     }
     mStatistics.divergenceIterations = iterations;
@@ -384,39 +444,10 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   }
   c.timings.forces += millisecondsSince(start);
 
-  // --- 3. non-pressure accelerations: gravity, viscosity ---
+  // --- 3. non-pressure accelerations (gravity, viscosity; computed in prepare()) ---
   start = Clock::now();
   {
-    const Vec3r gravity = solver.gravity;
-    const Real nu = c.settings.fluid.viscosity / c.settings.fluid.restDensity;
-    const Real h = c.constants.supportRadius;
-    const Real epsilon2 = Real(0.01) * h * h;
-    // Monaghan (1992) artificial viscosity Pi_ij = -alpha h c_ref (v_ij . x_ij) / (rho^_ij (|x_ij|^2 + 0.01 h^2))
-    // for approaching pairs, with c_ref = 10 x the scene's expected speed, the speed of sound of
-    // the default WCSPH (DFSPH has none), so both solvers get the same numerical viscosity.
-    const Real artificial = solver.artificialViscosity * h * Real(10) * c.constants.expectedSpeed;
     std::vector<Vec3r>& acceleration = c.acceleration;
-    acceleration.resize(n);
-    forEachParticle(n, [&](std::size_t i) {
-      Vec3r a = gravity;
-      if (nu > 0 || artificial > 0) {
-        const Vec3r xi = particles.position[i], vi = velocity[i];
-        for (std::uint32_t k = nl.offsets[i]; k < nl.offsets[i + 1]; ++k) {
-          const std::uint32_t j = nl.indices[k];
-          const Vec3r x = xi - particles.position[j];
-          const Real vx = (vi - velocity[j]).dot(x);
-          const Real denominator = x.squaredNorm() + epsilon2;
-          // Standard SPH viscosity (Morris 1997 form, as in SPlisHSPlasH):
-          // a_i += 2 (d + 2) nu sum_j V / rho^_j (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2) grad W_ij
-          Real scalar = Real(10) * nu * vx / (mDensityRatio[j] * denominator);
-          // a_i -= sum_j V Pi_ij grad W_ij  (V = m / rho_0)
-          if (vx < 0 && artificial > 0)
-            scalar += artificial * vx / (Real(0.5) * (mDensityRatio[i] + mDensityRatio[j]) * denominator);
-          a += scalar * mPairGradient[k];
-        }
-      }
-      acceleration[i] = a;
-    });
     const double maxA = tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, n, 4096), 0.0,
         [&](const auto& range, double m) {
@@ -434,22 +465,33 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   // --- 4. constant-density solve (B&K 2017 alg. 3) ---
   start = Clock::now();
   {
-    double error = deterministicSum(n, densityResidual);
-    forEachParticle(n, [&](std::size_t i) {
-      mDensityKappa[i] = mResidual[i] > 0 ? kWarmStartFactor * mDensityKappa[i] : Real(0);
-    });
-    applyKappa(mDensityKappa);
-    error = deterministicSum(n, densityResidual);
-    const double tolerance = double(solver.densityTolerance) * double(n);
     const Real inverseDt2 = Real(1) / (dt * dt);
+    // Residual: predicted compression rho*/rho_0 - 1 = existing + dt D(rho/rho_0)/Dt, clamped at 0.
+    auto residual = [&](std::size_t i) -> Real {
+      const Real existing = std::min(errorShare * (mDensityRatio[i] - Real(1)), kMaxErrorPerStep);
+      return std::max(existing + dt * densityRate(velocity, i), Real(0));
+    };
+    auto sweep = [&](std::size_t i) -> double {
+      const Real r = residual(i);
+      mKappaStep[i] = r * mFactor[i] * inverseDt2;
+      return double(r);
+    };
+    // Warm start where the fluid would be compressed, estimated without a pass over the
+    // pairs: the rate after the divergence solve plus gravity's part of dt a (the viscous
+    // part is left out of this estimate only).
+    forEachParticle(n, [&](std::size_t i) {
+      const Real existing = std::min(errorShare * (mDensityRatio[i] - Real(1)), kMaxErrorPerStep);
+      const Real estimate = existing + dt * (mRate[i] + dt * mGravityRate[i]);
+      mKappaStep[i] = estimate > 0 ? kDensityWarmStart * mDensityKappa[i] : Real(0);
+      mDensityKappa[i] = 0;
+    });
+    applyStep(velocity, mDensityKappa, dt);
+    double error = deterministicSum(n, sweep);
+    const double tolerance = double(solver.densityTolerance) * double(n);
     int iterations = 0;
     while (iterations < maxIterations && (iterations < kMinDensityIterations || error > tolerance)) {
-      forEachParticle(n, [&](std::size_t i) {
-        mKappaStep[i] = mResidual[i] * mFactor[i] * inverseDt2;
-        mDensityKappa[i] += mKappaStep[i];
-      });
-      applyKappa(mKappaStep);
-      error = deterministicSum(n, densityResidual);
+      applyStep(velocity, mDensityKappa, dt);
+      error = deterministicSum(n, sweep);
       ++iterations;
     }
     mStatistics.densityIterations = iterations;
@@ -514,10 +556,6 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
       }
     });
   }
-  if (shortStep) {
-    mDensityKappa.swap(savedDensityKappa);
-    mDivergenceKappa.swap(savedDivergenceKappa);
-  }
   {
     const Real restDensity = c.settings.fluid.restDensity;
     forEachParticle(n, [&](std::size_t i) {
@@ -527,8 +565,11 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
       particles.pressure[i] = (mDensityKappa[i] + mDivergenceKappa[i]) * rho * rho / restDensity;
     });
   }
+  if (shortStep) {
+    mDensityKappa.swap(savedDensityKappa);
+    mDivergenceKappa.swap(savedDivergenceKappa);
+  }
   c.timings.integrate += millisecondsSince(start);
-
 }
 
 } // namespace cascade

@@ -6,28 +6,40 @@
 ///        divergence (divergence-free solve) at rest values to a tolerance.
 ///
 /// Each step, with the neighbour lists of the Simulation (x at time t):
-///   1. density rho_i = rho_0 (V W_ii + sum_j V W_ij) over fluid and mirror neighbours
-///      (B&K 2017 eq. 5 in volume form; cubic spline kernel, V the rest volume
-///      of the initial lattice) and the factor alpha_i = 1 / D_i with
-///      D_i = |sum_j V grad W_ij|^2 + sum_j |V grad W_ij|^2 (B&K 2017 eq. 10;
-///      with mirrors, a particle's own images move with it and enter D_i);
+///   1. one pass over the pairs (prepare): density rho_i = rho_0 (V W_ii + sum_j V W_ij)
+///      over fluid and mirror neighbours (B&K 2017 eq. 5 in volume form; cubic spline
+///      kernel, V the rest volume of the initial lattice), the factor alpha_i = 1 / D_i
+///      with D_i = |sum_j V grad W_ij|^2 + sum_j |V grad W_ij|^2 (B&K 2017 eq. 10; with
+///      mirrors, a particle's own images move with it and enter D_i), the pair terms
+///      V grad W_ij kept for the solves (neighbours with grad W = 0 dropped, one 16-byte
+///      stream), the density change rate of the initial velocities, and the non-pressure
+///      accelerations of the initial velocities: gravity, viscosity (Morris 1997 form with
+///      nu = mu / rho_0) and Monaghan (1992) artificial viscosity alpha h c_ref with
+///      c_ref = 10 x the expected speed (the default WCSPH's speed of sound), both with the
+///      rest volume V and over the mirror particles too (image velocity: a no-slip wall
+///      exerts friction);
 ///   2. divergence-free solve (B&K 2017 alg. 2): kappa^v_i = (D rho_i/Dt / rho_0) alpha_i / dt,
 ///      v_i -= dt sum_j V (kappa_i + kappa_j) grad W_ij, until the mean predicted
-///      density change of one step is below divergenceTolerance (at least one sweep);
-///   3. non-pressure accelerations: gravity, viscosity (Morris 1997 form with
-///      nu = mu / rho_0) and Monaghan (1992) artificial viscosity alpha h c_ref with
-///      c_ref = 10 x the expected speed (the default WCSPH's speed of sound), v += dt a;
+///      density change of one step is below divergenceTolerance;
+///   3. v += dt a (the accelerations of step 1);
 ///   4. constant-density solve (B&K 2017 alg. 3): with the predicted density
 ///      rho*_i = rho_i + dt D rho_i/Dt (only compression corrected),
 ///      kappa_i = (rho*_i / rho_0 - 1) alpha_i / dt^2, the same velocity update,
 ///      until the mean (rho*_i - rho_0) / rho_0 is below densityTolerance (at least
-///      two sweeps, at most maxIterations);
+///      one sweep after the warm start, at most maxIterations);
 ///   5. x += dt v (symplectic Euler).
+/// Each Jacobi sweep is two passes over the pair terms: apply the increments
+/// (v_i -= dt (s_i G_i + sum_j s_j V grad W_ij), G_i = sum_j V grad W_ij) and the
+/// residuals with the next increments and the error (fixed chunks: deterministic).
 /// Warm starts (B&K 2017 section 4.1): each solve starts from half the
 /// stiffness kappa (a pressure over density, m^2/s^2) the particle ended the
-/// previous step with, kept per particle through reorders, removals and
-/// checkpoints. Reported pressure p_i = (kappa_i + kappa^v_i) rho_i^2 / rho_0 (from
-/// a_i = -sum_j m (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij).
+/// previous step with, where the particle is still being compressed (divergence:
+/// the rate of step 1; density: that rate after the divergence solve plus gravity's
+/// part, no extra pass), kept per particle through reorders, removals and
+/// checkpoints (the whole stiffness oscillates from step to step, measured). Reported
+/// pressure p_i = (kappa_i + kappa^v_i) rho_i^2 / rho_0 (from
+/// a_i = -sum_j m (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij); it changes from step to
+/// step (a multiplier of a solve stopped at a tolerance): its time mean is hydrostatic.
 ///
 /// Boundaries: the SEED's type II mirror particles (Libersky & Petschke 1993),
 /// rebuilt each step by the Simulation for the fluid within kappa h of a wall,
@@ -42,8 +54,8 @@
 ///
 /// Time step (TimeStepNeeds): CFL on the velocity only, dt = cfl h / v_max (no
 /// speed of sound), and dt <= 0.06 sqrt(h / a_max) with a_max the largest
-/// non-pressure acceleration (the Jacobi solves go unstable from about 0.09).
-/// A step much shorter than that (landing on a frame or probe time) removes
+/// non-pressure acceleration. A step the Simulation shortened to land on a frame or
+/// probe time (dt == maxTimeStep and less than half the last regular step) removes
 /// only its share of the density error already there and keeps the warm starts.
 /// Robustness: a step removes at most 2 % of a compression already there (so
 /// overlapping particles part over several steps); alpha_i is 0 for a particle with nearly no neighbours (not 1/0);
@@ -79,21 +91,30 @@ public:
   const Statistics& lastStatistics() const { return mStatistics; }
 
 private:
-  struct Scratch;
   void prepare(StepContext& context);
+  void applyStep(std::vector<Vec3r>& velocity, std::vector<Real>& kappa, Real dt);
+  Real densityRate(const std::vector<Vec3r>& velocity, std::size_t i) const;
 
   // State (follows the particles, saved in checkpoints): warm starts, m^2/s^2.
   std::vector<Real> mDensityKappa, mDivergenceKappa;
   double mRegularStep = 0;  // s, the last step not shortened to land on a frame or probe time
 
   // Per-step scratch.
-  std::vector<Real> mFactor, mResidual, mKappaStep, mDensityRatio;
-  std::vector<Vec3r> mPairGradient;           // V grad W_ij, aligned with the neighbour lists
-  std::vector<std::uint32_t> mNeighborCount;
+  std::vector<Real> mFactor, mKappaStep, mDensityRatio, mRate, mGravityRate;
+  /// One neighbour j strictly inside the support and V grad W_ij (16 bytes: one stream for the solves).
+  struct PairTerm {
+    std::uint32_t neighbor;
+    Real gx, gy, gz;
+  };
+  std::vector<PairTerm> mPairs;               // row i at the neighbour list's offsets[i], mPairCount[i] used
+  const std::uint32_t* mPairOffsets = nullptr;
+  std::vector<std::uint32_t> mPairCount, mNeighborCount;
+  std::vector<Vec3r> mGradientSum;            // G_i = sum_j V grad W_ij over fluid and mirror neighbours
   // Mirror (ghost) pairs of the boundary layer: compressed rows over layer().
   std::vector<std::uint32_t> mLayerIndex, mGhostOffsets, mGhostSource, mGhostMap;
-  std::vector<Vec3r> mGhostGradient;
+  std::vector<Vec3r> mGhostGradient, mGhostVelocityGradient;  // G, and L^T G for the image's velocity L v_j
   std::vector<Real> mGhostValue;
+  std::vector<Vec3r> mGhostOffset;  // x_i - x_image
   // Rest volume of one particle: 1 / (sum of W over the initial lattice).
   Real mRestVolume = 0, mFactorFloor = 0, mLatticeSupport = 0;
   Statistics mStatistics;

@@ -1,5 +1,5 @@
-// DFSPH (Bender & Koschier 2017) with Akinci 2012 boundary volumes: kernel,
-// boundary volumes, hydrostatic tank (density error, pressure against
+// DFSPH (Bender & Koschier 2017) with mirror-particle boundaries: kernel,
+// hydrostatic tank (density error, pressure against
 // rho g d, rest), warm starts through reorder / removal / checkpoints.
 #include "libsph/Kernels.h"
 #include "libsph/boundary/BoxBoundary.h"
@@ -70,30 +70,40 @@ TEST(DFSPH, HydrostaticTankHoldsDensityAndPressure) {
   sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(0.2, 0.2, 0.3)));
   const std::size_t count = sim.addFluidBox(Vec3r(0, 0, 0), Vec3r(0.2, 0.2, depth));
   ASSERT_EQ(count, 8000u);
-  sim.advanceTo(1.0);
+  sim.advanceTo(0.8);
   const auto& dfsph = dynamic_cast<const TimeStepDFSPH&>(sim.timeStep());
+  // The pressure of an implicit solve is a multiplier that changes from step to step
+  // (the Jacobi sweeps stop at a density tolerance): the hydrostatic profile is its
+  // mean, taken over every step of the last 0.2 s (as the WCSPH hydrostatic test does).
+  double sxx = 0, sxy = 0, bottomPressure = 0, surface = 0;
+  int bottomCount = 0, samples = 0;
+  while (sim.time() < 1.0) {
+    sim.step();
+    const Particles& p = sim.particles();
+    double top = 0;
+    for (const Vec3r& x : p.position) top = std::max(top, double(x.z()));
+    const double level = top + 0.5 * spacing;
+    surface += level;
+    ++samples;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      const double d = level - p.position[i].z();
+      if (d < 3 * spacing) continue;
+      sxx += d * d;
+      sxy += d * p.pressure[i];
+      const Vec3r& x = p.position[i];
+      if (x.z() < spacing && x.x() > 0.05 && x.x() < 0.15 && x.y() > 0.05 && x.y() < 0.15) {
+        bottomPressure += p.pressure[i] + 1000.0 * 9.81 * x.z();  // extrapolated to the floor
+        ++bottomCount;
+      }
+    }
+  }
+  surface /= samples;
   const Particles& p = sim.particles();
-  double maxSpeed = 0, meanSpeed = 0, maxCompression = 0, top = 0;
+  double maxSpeed = 0, meanSpeed = 0, maxCompression = 0;
   for (std::size_t i = 0; i < p.size(); ++i) {
     maxSpeed = std::max(maxSpeed, double(p.velocity[i].norm()));
     meanSpeed += p.velocity[i].norm() / double(p.size());
     maxCompression = std::max(maxCompression, double(p.density[i]) / 1000.0 - 1.0);
-    top = std::max(top, double(p.position[i].z()));
-  }
-  // Pressure against depth: least-squares slope over the particles below the top layers.
-  const double surface = top + 0.5 * spacing;
-  double sxx = 0, sxy = 0, bottomPressure = 0;
-  int bottomCount = 0;
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    const double d = surface - p.position[i].z();
-    if (d < 3 * spacing) continue;
-    sxx += d * d;
-    sxy += d * p.pressure[i];
-    const Vec3r& x = p.position[i];
-    if (x.z() < spacing && x.x() > 0.05 && x.x() < 0.15 && x.y() > 0.05 && x.y() < 0.15) {
-      bottomPressure += p.pressure[i] + 1000.0 * 9.81 * x.z();  // extrapolated to the floor
-      ++bottomCount;
-    }
   }
   const double slope = sxy / sxx / (1000.0 * 9.81);
   bottomPressure /= bottomCount;
@@ -165,6 +175,8 @@ TEST(DFSPH, WarmStartsFollowReorderRemovalAndCheckpoints) {
   auto coldResumed = smallDamBreak();
   coldResumed->restore(zeroed);
   for (int k = 60; k < 250; ++k) coldResumed->step();
-  ASSERT_EQ(coldResumed->particles().size(), a.size());
-  EXPECT_NE(std::memcmp(a.position.data(), coldResumed->particles().position.data(), a.size() * sizeof(Vec3r)), 0);
+  // Different particle counts (a different removal) or different positions: the state differs.
+  const bool sameCount = coldResumed->particles().size() == a.size();
+  EXPECT_TRUE(!sameCount ||
+              std::memcmp(a.position.data(), coldResumed->particles().position.data(), a.size() * sizeof(Vec3r)) != 0);
 }
