@@ -8,8 +8,15 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+
+#if (defined(__x86_64__) || defined(__i386__)) && !defined(CASCADE_DOUBLE) && \
+    (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#define CASCADE_WCSPH_AVX2 1
+#endif
 
 namespace cascade {
 
@@ -71,28 +78,274 @@ struct PairTerms {
   }
 };
 
+/// The constants of the fluid pair loop (SEED (5), (6), Monaghan 1992).
+struct ForceConstants {
+  Real supportRadius, supportRadius2;
+  Real gradientCoeff;    // spiky: -45 / (pi h^6)
+  Real pressureCoeff;    // -m (1 or 1/2) / C
+  Real artificialCoeff;  // 2 m alpha h c
+  Real epsilon2;         // 0.01 h^2
+  bool artificial, viscous;
+};
+
+/// The particle whose neighbours are summed (or a mirror pre-image of it).
+struct ForceQuery {
+  Real x, y, z, vx, vy, vz, pressure, density, inverseDensity;
+};
+
+/// sum_j f_ij r_ij (pressure and artificial viscosity, SEED (5)) and
+/// sum_j (h - r_ij) / rho_j v_ij (the viscosity sum of SEED (6)).
+struct ForceSums {
+  Vec3r pressure = Vec3r::Zero();
+  Vec3r viscous = Vec3r::Zero();
+};
+
+/// One pair, shared by every path: adds j's terms to the sums.
+inline void addPairTerms(const ForceConstants& k, const ForceQuery& q, const wcsph::PairInput& pj,
+                         ForceSums& sums) {
+  const Vec3r r(q.x - pj.x, q.y - pj.y, q.z - pj.z);
+  const Real r2 = r.squaredNorm();
+  if (r2 >= k.supportRadius2 || r2 <= Real(0)) return;
+  const Real len = std::sqrt(r2);
+  const Real diff = k.supportRadius - len;
+  const Real invRhoj = Real(1) / pj.density;
+  // SEED (5) / rho_i: -m (p_i + p_j) / (rho_i rho_j) grad W_spiky, grad W = -45/(pi h^6) (h - r)^2 r/|r|
+  Real scalar = k.pressureCoeff * (q.pressure + pj.pressure) * q.inverseDensity * invRhoj;
+  const Vec3r relativeVelocity(q.vx - pj.vx, q.vy - pj.vy, q.vz - pj.vz);
+  const Real vr = relativeVelocity.dot(r);
+  if (k.artificial && vr < 0)  // Monaghan 1992
+    scalar += k.artificialCoeff * vr / ((q.density + pj.density) * (r2 + k.epsilon2));
+  sums.pressure += (scalar * k.gradientCoeff * diff * diff / len) * r;
+  if (k.viscous) sums.viscous += (diff * invRhoj) * relativeVelocity;
+}
+
+/// Sum over neighbours[0 .. count) (scalar).
+ForceSums forceSumsScalar(const ForceConstants& k, const wcsph::PairInput* particles, const ForceQuery& q,
+                          const std::uint32_t* neighbors, std::uint32_t count) {
+  ForceSums sums;
+  for (std::uint32_t n = 0; n < count; ++n) addPairTerms(k, q, particles[neighbors[n]], sums);
+  return sums;
+}
+
+/// sum_j (h^2 - r_ij^2)^3 over neighbours within h (the poly6 sum of SEED (4), scalar).
+Real poly6SumScalar(const wcsph::PairInput* particles, const Vec3r& q, const std::uint32_t* neighbors,
+                    std::uint32_t count, Real supportRadius2) {
+  Real sum = 0;
+  for (std::uint32_t n = 0; n < count; ++n) {
+    const wcsph::PairInput& pj = particles[neighbors[n]];
+    const Real r2 = squaredDistance(q, Vec3r(pj.x, pj.y, pj.z));
+    if (r2 < supportRadius2) {
+      const Real d = supportRadius2 - r2;
+      sum += d * d * d;
+    }
+  }
+  return sum;
+}
+
+#ifdef CASCADE_WCSPH_AVX2
+#define CASCADE_WCSPH_TARGET __attribute__((target("avx2")))
+
+CASCADE_WCSPH_TARGET inline float horizontalSum(__m256 v) {
+  const __m128 s = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
+  const __m128 t = _mm_add_ps(s, _mm_movehl_ps(s, s));
+  return _mm_cvtss_f32(_mm_add_ss(t, _mm_shuffle_ps(t, t, 1)));
+}
+
+/// All bits set in lanes [0, lanes).
+CASCADE_WCSPH_TARGET inline __m256 laneMask(std::uint32_t lanes) {
+  return _mm256_castsi256_ps(
+      _mm256_cmpgt_epi32(_mm256_set1_epi32(static_cast<int>(lanes)), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
+}
+
+/// The records of eight neighbours (unused lanes repeat the first), transposed:
+/// field[f] holds field f of the eight.
+CASCADE_WCSPH_TARGET inline void loadRecords(const wcsph::PairInput* particles, const std::uint32_t* neighbors,
+                                            std::uint32_t lanes, __m256 field[8]) {
+  __m256 row[8];
+  for (std::uint32_t l = 0; l < 8; ++l)
+    row[l] = _mm256_load_ps(&particles[neighbors[l < lanes ? l : 0]].x);
+  __m256 t[8], u[8];
+  for (int p = 0; p < 4; ++p) {
+    t[2 * p] = _mm256_unpacklo_ps(row[2 * p], row[2 * p + 1]);
+    t[2 * p + 1] = _mm256_unpackhi_ps(row[2 * p], row[2 * p + 1]);
+  }
+  for (int h = 0; h < 2; ++h) {
+    u[4 * h + 0] = _mm256_shuffle_ps(t[4 * h + 0], t[4 * h + 2], 0x44);
+    u[4 * h + 1] = _mm256_shuffle_ps(t[4 * h + 0], t[4 * h + 2], 0xEE);
+    u[4 * h + 2] = _mm256_shuffle_ps(t[4 * h + 1], t[4 * h + 3], 0x44);
+    u[4 * h + 3] = _mm256_shuffle_ps(t[4 * h + 1], t[4 * h + 3], 0xEE);
+  }
+  for (int f = 0; f < 4; ++f) {
+    field[f] = _mm256_permute2f128_ps(u[f], u[4 + f], 0x20);
+    field[4 + f] = _mm256_permute2f128_ps(u[f], u[4 + f], 0x31);
+  }
+}
+
+/// Positions of eight neighbours (unused lanes repeat the first).
+CASCADE_WCSPH_TARGET inline void loadPositions(const wcsph::PairInput* particles, const std::uint32_t* neighbors,
+                                              std::uint32_t lanes, __m256& x, __m256& y, __m256& z) {
+  __m256 row[4];
+  for (std::uint32_t l = 0; l < 4; ++l) {
+    const __m128 low = _mm_load_ps(&particles[neighbors[l < lanes ? l : 0]].x);
+    const __m128 high = _mm_load_ps(&particles[neighbors[l + 4 < lanes ? l + 4 : 0]].x);
+    row[l] = _mm256_insertf128_ps(_mm256_castps128_ps256(low), high, 1);
+  }
+  const __m256 t0 = _mm256_unpacklo_ps(row[0], row[1]), t1 = _mm256_unpackhi_ps(row[0], row[1]);
+  const __m256 t2 = _mm256_unpacklo_ps(row[2], row[3]), t3 = _mm256_unpackhi_ps(row[2], row[3]);
+  x = _mm256_shuffle_ps(t0, t2, 0x44);
+  y = _mm256_shuffle_ps(t0, t2, 0xEE);
+  z = _mm256_shuffle_ps(t1, t3, 0x44);
+}
+
+/// forceSumsScalar, eight neighbours at a time (the same terms; sums in another order).
+CASCADE_WCSPH_TARGET ForceSums forceSumsAvx2(const ForceConstants& k, const wcsph::PairInput* particles,
+                                             const ForceQuery& q, const std::uint32_t* neighbors,
+                                             std::uint32_t count) {
+  const __m256 qx = _mm256_set1_ps(q.x), qy = _mm256_set1_ps(q.y), qz = _mm256_set1_ps(q.z);
+  const __m256 qvx = _mm256_set1_ps(q.vx), qvy = _mm256_set1_ps(q.vy), qvz = _mm256_set1_ps(q.vz);
+  const __m256 qPressure = _mm256_set1_ps(q.pressure), qDensity = _mm256_set1_ps(q.density);
+  const __m256 qInverseDensity = _mm256_set1_ps(q.inverseDensity);
+  const __m256 h = _mm256_set1_ps(k.supportRadius), h2 = _mm256_set1_ps(k.supportRadius2);
+  const __m256 pressureCoeff = _mm256_set1_ps(k.pressureCoeff), gradientCoeff = _mm256_set1_ps(k.gradientCoeff);
+  const __m256 artificialCoeff = _mm256_set1_ps(k.artificialCoeff), epsilon2 = _mm256_set1_ps(k.epsilon2);
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
+  __m256 ax = zero, ay = zero, az = zero, vx = zero, vy = zero, vz = zero;
+  for (std::uint32_t first = 0; first < count; first += 8) {
+    const std::uint32_t lanes = std::min<std::uint32_t>(8, count - first);
+    __m256 f[8];  // x, y, z, pressure, vx, vy, vz, density
+    loadRecords(particles, neighbors + first, lanes, f);
+    const __m256 rx = _mm256_sub_ps(qx, f[0]), ry = _mm256_sub_ps(qy, f[1]), rz = _mm256_sub_ps(qz, f[2]);
+    const __m256 r2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(rx, rx), _mm256_mul_ps(ry, ry)), _mm256_mul_ps(rz, rz));
+    __m256 valid = _mm256_and_ps(_mm256_cmp_ps(r2, h2, _CMP_LT_OQ), _mm256_cmp_ps(r2, zero, _CMP_GT_OQ));
+    if (lanes < 8) valid = _mm256_and_ps(valid, laneMask(lanes));
+    const __m256 len = _mm256_sqrt_ps(r2);
+    const __m256 diff = _mm256_sub_ps(h, len);
+    const __m256 invRhoj = _mm256_div_ps(one, f[7]);
+    __m256 scalar = _mm256_mul_ps(
+        _mm256_mul_ps(_mm256_mul_ps(pressureCoeff, _mm256_add_ps(qPressure, f[3])), qInverseDensity), invRhoj);
+    const __m256 rvx = _mm256_sub_ps(qvx, f[4]), rvy = _mm256_sub_ps(qvy, f[5]), rvz = _mm256_sub_ps(qvz, f[6]);
+    if (k.artificial) {
+      const __m256 vr =
+          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(rvx, rx), _mm256_mul_ps(rvy, ry)), _mm256_mul_ps(rvz, rz));
+      const __m256 term = _mm256_div_ps(_mm256_mul_ps(artificialCoeff, vr),
+                                        _mm256_mul_ps(_mm256_add_ps(qDensity, f[7]), _mm256_add_ps(r2, epsilon2)));
+      scalar = _mm256_add_ps(scalar, _mm256_and_ps(term, _mm256_cmp_ps(vr, zero, _CMP_LT_OQ)));
+    }
+    const __m256 factor = _mm256_and_ps(
+        _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(scalar, gradientCoeff), diff), diff), len), valid);
+    ax = _mm256_add_ps(ax, _mm256_mul_ps(factor, rx));
+    ay = _mm256_add_ps(ay, _mm256_mul_ps(factor, ry));
+    az = _mm256_add_ps(az, _mm256_mul_ps(factor, rz));
+    if (k.viscous) {
+      const __m256 weight = _mm256_and_ps(_mm256_mul_ps(diff, invRhoj), valid);
+      vx = _mm256_add_ps(vx, _mm256_mul_ps(weight, rvx));
+      vy = _mm256_add_ps(vy, _mm256_mul_ps(weight, rvy));
+      vz = _mm256_add_ps(vz, _mm256_mul_ps(weight, rvz));
+    }
+  }
+  ForceSums sums;
+  sums.pressure = Vec3r(horizontalSum(ax), horizontalSum(ay), horizontalSum(az));
+  if (k.viscous) sums.viscous = Vec3r(horizontalSum(vx), horizontalSum(vy), horizontalSum(vz));
+  return sums;
+}
+
+/// poly6SumScalar, eight neighbours at a time.
+CASCADE_WCSPH_TARGET Real poly6SumAvx2(const wcsph::PairInput* particles, const Vec3r& q,
+                                       const std::uint32_t* neighbors, std::uint32_t count, Real supportRadius2) {
+  const __m256 qx = _mm256_set1_ps(q.x()), qy = _mm256_set1_ps(q.y()), qz = _mm256_set1_ps(q.z());
+  const __m256 h2 = _mm256_set1_ps(supportRadius2);
+  __m256 sum = _mm256_setzero_ps();
+  for (std::uint32_t first = 0; first < count; first += 8) {
+    const std::uint32_t lanes = std::min<std::uint32_t>(8, count - first);
+    __m256 x, y, z;
+    loadPositions(particles, neighbors + first, lanes, x, y, z);
+    const __m256 dx = _mm256_sub_ps(qx, x), dy = _mm256_sub_ps(qy, y), dz = _mm256_sub_ps(qz, z);
+    const __m256 r2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+    __m256 within = _mm256_cmp_ps(r2, h2, _CMP_LT_OQ);
+    if (lanes < 8) within = _mm256_and_ps(within, laneMask(lanes));
+    const __m256 d = _mm256_and_ps(_mm256_sub_ps(h2, r2), within);
+    sum = _mm256_add_ps(sum, _mm256_mul_ps(_mm256_mul_ps(d, d), d));
+  }
+  return horizontalSum(sum);
+}
+
+bool wcsphUsesAvx2() {
+  static const bool supported = __builtin_cpu_supports("avx2");
+  return supported;
+}
+#endif
+
+ForceSums forceSums(const ForceConstants& k, const wcsph::PairInput* particles, const ForceQuery& q,
+                    const std::uint32_t* neighbors, std::uint32_t count) {
+#ifdef CASCADE_WCSPH_AVX2
+  if (wcsphUsesAvx2()) return forceSumsAvx2(k, particles, q, neighbors, count);
+#endif
+  return forceSumsScalar(k, particles, q, neighbors, count);
+}
+
+Real poly6Sum(const wcsph::PairInput* particles, const Vec3r& q, const std::uint32_t* neighbors,
+              std::uint32_t count, Real supportRadius2) {
+#ifdef CASCADE_WCSPH_AVX2
+  if (wcsphUsesAvx2()) return poly6SumAvx2(particles, q, neighbors, count, supportRadius2);
+#endif
+  return poly6SumScalar(particles, q, neighbors, count, supportRadius2);
+}
+
+ForceConstants forceConstants(const StepContext& c) {
+  const PairTerms terms(c);
+  ForceConstants k;
+  k.supportRadius = terms.spiky.supportRadius;
+  k.supportRadius2 = terms.supportRadius2;
+  k.gradientCoeff = terms.spiky.gradientCoeff;
+  k.pressureCoeff = -terms.mass * terms.pressureFactor;
+  k.artificialCoeff = Real(2) * terms.mass * terms.artificialCoeff;
+  k.epsilon2 = terms.epsilon2;
+  k.artificial = terms.artificialCoeff > 0;
+  k.viscous = terms.viscosityCoeff > 0;
+  return k;
+}
+
+/// Whether `linear` is orthogonal (a reflection or a product of them), so the
+/// mirror passes may work in the mirror's frame.
+bool isOrthogonal(const Eigen::Matrix<Real, 3, 3>& linear) {
+  return ((linear.transpose() * linear) - Eigen::Matrix<Real, 3, 3>::Identity()).cwiseAbs().maxCoeff() <= Real(1e-4);
+}
+
 } // namespace
 
 namespace wcsph {
 
-void computeFluidDensity(StepContext& c) {
+void computeFluidDensity(StepContext& c, Workspace& workspace) {
   Particles& particles = c.particles;
+  const std::size_t n = particles.size();
+  workspace.particles.resize(n);
+  PairInput* records = workspace.particles.data();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const Vec3r& x = particles.position[i];
+      const Vec3r& v = particles.velocity[i];
+      records[i].x = x.x();
+      records[i].y = x.y();
+      records[i].z = x.z();
+      records[i].vx = v.x();
+      records[i].vy = v.y();
+      records[i].vz = v.z();
+    }
+  });
   const KernelPoly6 poly6(c.constants.supportRadius);
   const Real mass = c.constants.particleMass;
   const Real self = poly6.valueFromSquared(0);
+  const Real h2 = c.constants.supportRadius * c.constants.supportRadius;
   const NeighborLists& nl = c.neighbors;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles.size(), 512), [&](const auto& range) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const Vec3r xi = particles.position[i];
-      Real sum = self;
-      for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j)
-        sum += poly6.valueFromSquared(squaredDistance(xi, particles.position[*j]));
-      particles.density[i] = mass * sum;  // SEED (4)
+      const Real sum = poly6Sum(records, particles.position[i], nl.begin(i), nl.count(i), h2);
+      particles.density[i] = mass * (self + poly6.valueCoeff * sum);  // SEED (4)
     }
   });
 }
 
-void addMirrorDensity(StepContext& c) {
+void addMirrorDensity(StepContext& c, const Workspace& workspace) {
   const BoundaryParticles& boundary = c.boundary;
   if (boundary.mirrors().empty()) return;
   Particles& particles = c.particles;
@@ -100,28 +353,38 @@ void addMirrorDensity(StepContext& c) {
   const Real mass = c.constants.particleMass;
   const Real h2 = c.constants.supportRadius * c.constants.supportRadius;
   const NeighborLists& nl = c.neighbors;
+  const PairInput* records = workspace.particles.data();
   const std::vector<std::uint32_t>& layer = boundary.layer();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, layer.size(), 256), [&](const auto& range) {
     for (std::size_t k = range.begin(); k != range.end(); ++k) {
       const std::uint32_t i = layer[k];
       const Vec3r xi = particles.position[i];
-      Real sum = 0;
+      Real sum = 0;  // of (h^2 - r^2)^3
+      auto add = [&](Real r2) {
+        if (r2 < h2) {
+          const Real d = h2 - r2;
+          sum += d * d * d;
+        }
+      };
       for (std::uint32_t m = boundary.mirrorOffsets()[i]; m < boundary.mirrorOffsets()[i + 1]; ++m) {
         const MirrorMap& map = boundary.mirrors()[m];
-        // mirror of i itself, then of each neighbour
-        Real r2 = squaredDistance(xi, map.apply(xi));
-        if (r2 < h2) sum += poly6.valueFromSquared(r2);
-        for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j) {
-          r2 = squaredDistance(xi, map.apply(particles.position[*j]));
-          if (r2 < h2) sum += poly6.valueFromSquared(r2);
+        // The mirror of i itself, then of each neighbour.
+        add(squaredDistance(xi, map.apply(xi)));
+        if (isOrthogonal(map.linear)) {
+          // |x_i - (M x_j + o)| = |M^T (x_i - o) - x_j|: the fluid sum around i's pre-image.
+          const Vec3r preImage = map.linear.transpose() * (xi - map.offset);
+          sum += poly6Sum(records, preImage, nl.begin(i), nl.count(i), h2);
+        } else {
+          for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j)
+            add(squaredDistance(xi, map.apply(particles.position[*j])));
         }
       }
-      particles.density[i] += mass * sum;
+      particles.density[i] += mass * poly6.valueCoeff * sum;
     }
   });
 }
 
-void computePressure(StepContext& c) {
+void computePressure(StepContext& c, Workspace& workspace) {
   PressureModel model;
   model.equation = c.settings.solver.equationOfState;
   model.restDensity = c.settings.fluid.restDensity;
@@ -129,66 +392,40 @@ void computePressure(StepContext& c) {
   model.exponent = c.settings.solver.taitExponent;
   model.clampNegative = c.settings.solver.clampNegativePressure;
   Particles& particles = c.particles;
+  PairInput* records = workspace.particles.data();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles.size(), 2048), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) particles.pressure[i] = model(particles.density[i]);
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      particles.pressure[i] = model(particles.density[i]);
+      records[i].pressure = particles.pressure[i];
+      records[i].density = particles.density[i];
+    }
   });
 }
 
-void computeFluidAcceleration(StepContext& c) {
+void computeFluidAcceleration(StepContext& c, const Workspace& workspace) {
   const Particles& particles = c.particles;
+  const ForceConstants k = forceConstants(c);
   const PairTerms terms(c);
+  const Real viscosityCoeff = terms.viscosityCoeff * terms.viscosity.laplacianCoeff;
   const NeighborLists& nl = c.neighbors;
   const Vec3r gravity = c.settings.solver.gravity;
   std::vector<Vec3r>& acceleration = c.acceleration;
   const std::size_t n = particles.size();
   acceleration.resize(n);
-  // 1 / rho once per particle, so the pair loop has one division (and one sqrt).
-  static thread_local std::vector<Real> inverseDensity;
-  inverseDensity.resize(n);
-  // The calling thread's buffer: inside the lambda `inverseDensity` would name
-  // each TBB worker's own (empty) thread_local vector.
-  Real* const inverseDensityOut = inverseDensity.data();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) inverseDensityOut[i] = Real(1) / particles.density[i];
-  });
-  const Real h = terms.spiky.supportRadius, h2 = terms.supportRadius2;
-  const Real gradientCoeff = terms.spiky.gradientCoeff;
-  const Real pressureCoeff = -terms.mass * terms.pressureFactor;  // SEED (5) / rho_i
-  const Real artificialCoeff = Real(2) * terms.mass * terms.artificialCoeff;
-  const Real viscosityCoeff = terms.viscosityCoeff * terms.viscosity.laplacianCoeff;
-  const Real* invRho = inverseDensity.data();
-  const Vec3r* x = particles.position.data();
-  const Vec3r* v = particles.velocity.data();
-  const Real* p = particles.pressure.data();
-  const Real* rho = particles.density.data();
+  const PairInput* records = workspace.particles.data();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const Vec3r xi = x[i], vi = v[i];
-      const Real pi = p[i], rhoi = rho[i], invRhoi = invRho[i];
-      Vec3r a = Vec3r::Zero(), viscous = Vec3r::Zero();
-      for (const std::uint32_t* jp = nl.begin(i); jp != nl.end(i); ++jp) {
-        const std::uint32_t j = *jp;
-        const Vec3r r = xi - x[j];
-        const Real r2 = r.squaredNorm();
-        if (r2 >= h2 || r2 <= Real(0)) continue;
-        const Real len = std::sqrt(r2);
-        const Real diff = h - len;
-        // grad W_spiky = -45/(pi h^6) (h - r)^2 r/|r|  (SEED (8)); scalar part over |r|
-        const Real invRhoj = invRho[j];
-        Real scalar = pressureCoeff * (pi + p[j]) * invRhoi * invRhoj;
-        const Vec3r relativeVelocity = vi - v[j];
-        const Real vr = relativeVelocity.dot(r);
-        if (vr < 0 && artificialCoeff > 0)  // Monaghan 1992
-          scalar += artificialCoeff * vr / ((rhoi + rho[j]) * (r2 + terms.epsilon2));
-        a += (scalar * gradientCoeff * diff * diff / len) * r;
-        if (viscosityCoeff > 0) viscous -= (diff * invRhoj) * relativeVelocity;  // SEED (6)
-      }
-      acceleration[i] = gravity + a + (viscosityCoeff * invRhoi) * viscous;
+      const PairInput& p = records[i];
+      const Real invRhoi = Real(1) / p.density;
+      const ForceQuery q{p.x, p.y, p.z, p.vx, p.vy, p.vz, p.pressure, p.density, invRhoi};
+      const ForceSums sums = forceSums(k, records, q, nl.begin(i), nl.count(i));
+      // SEED (6) / rho_i: mu m (v_j - v_i) / (rho_j rho_i) lap W_visc
+      acceleration[i] = gravity + sums.pressure - (viscosityCoeff * invRhoi) * sums.viscous;
     }
   });
 }
 
-void addBoundaryAcceleration(StepContext& c) {
+void addBoundaryAcceleration(StepContext& c, const Workspace& workspace) {
   const BoundaryParticles& boundary = c.boundary;
   const Particles& particles = c.particles;
   const std::vector<std::uint32_t>& layer = boundary.layer();
@@ -196,6 +433,9 @@ void addBoundaryAcceleration(StepContext& c) {
   std::fill(c.obstacleForce.begin(), c.obstacleForce.end(), Vec3d::Zero());
   if (layer.empty()) return;
   const PairTerms terms(c);
+  const ForceConstants k = forceConstants(c);
+  const Real viscosityCoeff = terms.viscosityCoeff * terms.viscosity.laplacianCoeff;
+  const PairInput* records = workspace.particles.data();
   const NeighborLists& nl = c.neighbors;
   const bool noSlip = c.settings.boundary.slip == MirrorSlip::NoSlip;
   const Real r0 = c.constants.repulsionRadius, r02 = r0 * r0;
@@ -213,8 +453,8 @@ void addBoundaryAcceleration(StepContext& c) {
   tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t chunk) {
     Vec3d* force = chunkForce.data() + chunk * boundaryCount;
     const std::size_t end = std::min(layer.size(), (chunk + 1) * kChunk);
-    for (std::size_t k = chunk * kChunk; k < end; ++k) {
-      const std::uint32_t i = layer[k];
+    for (std::size_t kk = chunk * kChunk; kk < end; ++kk) {
+      const std::uint32_t i = layer[kk];
       const Vec3r xi = particles.position[i], vi = particles.velocity[i];
       const Real pi = particles.pressure[i], rhoi = particles.density[i];
       Vec3r total = Vec3r::Zero();
@@ -222,16 +462,30 @@ void addBoundaryAcceleration(StepContext& c) {
       for (std::uint32_t m = boundary.mirrorOffsets()[i]; m < boundary.mirrorOffsets()[i + 1]; ++m) {
         const MirrorMap& map = boundary.mirrors()[m];
         Vec3r a = Vec3r::Zero();
-        auto visit = [&](std::uint32_t j) {
-          const Vec3r r = xi - map.apply(particles.position[j]);
-          const Real r2 = r.squaredNorm();
-          if (r2 >= terms.supportRadius2 || r2 <= Real(0)) return;
-          const Vec3r& vj = particles.velocity[j];
-          const Vec3r mirroredVelocity = noSlip ? Vec3r(-vj) : Vec3r(map.linear * vj);
-          a += terms(r, r2, pi, rhoi, vi, particles.pressure[j], particles.density[j], mirroredVelocity);
-        };
-        visit(i);
-        for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j) visit(*j);
+        if (!noSlip && isOrthogonal(map.linear)) {
+          // Free slip: the mirror of j at M x_j + o with velocity M v_j. With
+          // y = M^T (x_i - o) and u = M^T v_i, x_i - M x_j - o = M (y - x_j) and
+          // v_i - M v_j = M (u - v_j): the fluid sums around (y, u), turned by M.
+          const Vec3r y = map.linear.transpose() * (xi - map.offset);
+          const Vec3r u = map.linear.transpose() * vi;
+          const Real invRhoi = Real(1) / rhoi;
+          const ForceQuery q{y.x(), y.y(), y.z(), u.x(), u.y(), u.z(), pi, rhoi, invRhoi};
+          const std::uint32_t self = i;
+          ForceSums sums = forceSums(k, records, q, nl.begin(i), nl.count(i));
+          addPairTerms(k, q, records[self], sums);
+          a = map.linear * (sums.pressure - (viscosityCoeff * invRhoi) * sums.viscous);
+        } else {
+          auto visit = [&](std::uint32_t j) {
+            const Vec3r r = xi - map.apply(particles.position[j]);
+            const Real r2 = r.squaredNorm();
+            if (r2 >= terms.supportRadius2 || r2 <= Real(0)) return;
+            const Vec3r& vj = particles.velocity[j];
+            const Vec3r mirroredVelocity = noSlip ? Vec3r(-vj) : Vec3r(map.linear * vj);
+            a += terms(r, r2, pi, rhoi, vi, particles.pressure[j], particles.density[j], mirroredVelocity);
+          };
+          visit(i);
+          for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j) visit(*j);
+        }
         total += a;
         if (map.boundary < boundaryCount) force[map.boundary] -= (mass * a).cast<double>();
       }
@@ -278,23 +532,23 @@ Real integrateSymplecticEuler(StepContext& c, Real dt) {
 
 void TimeStepWCSPH::advance(StepContext& c, Real dt) {
   auto start = Clock::now();
-  wcsph::computeFluidDensity(c);
+  wcsph::computeFluidDensity(c, mWorkspace);
   c.timings.density += millisecondsSince(start);
 
   start = Clock::now();
-  wcsph::addMirrorDensity(c);
+  wcsph::addMirrorDensity(c, mWorkspace);
   c.timings.boundary += millisecondsSince(start);
 
   start = Clock::now();
-  wcsph::computePressure(c);
+  wcsph::computePressure(c, mWorkspace);
   c.timings.density += millisecondsSince(start);
 
   start = Clock::now();
-  wcsph::computeFluidAcceleration(c);
+  wcsph::computeFluidAcceleration(c, mWorkspace);
   c.timings.forces += millisecondsSince(start);
 
   start = Clock::now();
-  wcsph::addBoundaryAcceleration(c);
+  wcsph::addBoundaryAcceleration(c, mWorkspace);
   c.timings.boundary += millisecondsSince(start);
 
   start = Clock::now();

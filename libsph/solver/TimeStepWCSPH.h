@@ -11,31 +11,57 @@
 ///
 /// Every pass is a TBB loop over the contiguous particle arrays, reading the
 /// step's neighbour lists; the boundary passes only visit the boundary layer.
+/// The pair loops read one 32-byte record per neighbour (position, pressure,
+/// velocity, density) and, on processors with AVX2, take eight neighbours at
+/// a time. A mirror map is a reflection or a product of reflections
+/// (orthogonal), so the distance between particle i and the mirror image of j
+/// equals the distance between the pre-image of i and j itself: the mirror
+/// passes run the fluid loops with i's pre-image and turn the sum back
+/// (Libersky & Petschke 1993 mirrors, evaluated in the mirror's frame).
 #pragma once
 
 #include "libsph/solver/TimeStep.h"
 
+#include <vector>
+
 namespace cascade {
+
+namespace wcsph {
+/// One particle as the pair loops read it: one aligned record per neighbour.
+struct alignas(32) PairInput {
+  Real x, y, z, pressure;
+  Real vx, vy, vz, density;
+};
+/// Scratch the passes keep between steps.
+struct Workspace {
+  std::vector<PairInput> particles;
+};
+} // namespace wcsph
 
 class TimeStepWCSPH final : public TimeStep {
 public:
   std::string name() const override { return "wcsph"; }
   void advance(StepContext& context, Real dt) override;
+
+private:
+  wcsph::Workspace mWorkspace;
 };
 
 /// Shared passes (also usable by other strategies and benchmarks).
 namespace wcsph {
-/// SEED (4): rho_i = m (W(0) + sum_j W(x_ij)) over fluid neighbours.
-void computeFluidDensity(StepContext& context);
+/// SEED (4): rho_i = m (W(0) + sum_j W(x_ij)) over fluid neighbours; fills
+/// the positions and velocities of workspace.particles.
+void computeFluidDensity(StepContext& context, Workspace& workspace);
 /// Adds the mirror particles' density to the boundary layer.
-void addMirrorDensity(StepContext& context);
-/// SEED (10) or Tait for every particle.
-void computePressure(StepContext& context);
+void addMirrorDensity(StepContext& context, const Workspace& workspace);
+/// SEED (10) or Tait for every particle; fills the pressures and densities of
+/// workspace.particles.
+void computePressure(StepContext& context, Workspace& workspace);
 /// Fluid-fluid accelerations: SEED (5), (6), artificial viscosity, gravity.
-void computeFluidAcceleration(StepContext& context);
+void computeFluidAcceleration(StepContext& context, const Workspace& workspace);
 /// Boundary layer: mirror pressure / viscosity and SEED (11) repulsion; fills
 /// context.obstacleForce (N, force on each boundary by the fluid).
-void addBoundaryAcceleration(StepContext& context);
+void addBoundaryAcceleration(StepContext& context, const Workspace& workspace);
 /// SEED (12)-(14): v += a dt, x += v dt. Returns the largest |a|.
 Real integrateSymplecticEuler(StepContext& context, Real dt);
 } // namespace wcsph
