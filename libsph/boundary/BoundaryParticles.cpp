@@ -177,10 +177,12 @@ void BoundaryParticles::forEachSampleWithin(const Vec3r& x, Real radius, F&& vis
         !latticeRange(relative.dot(lattice.axisV), reach, lattice.halfV, lattice.intervalsV, lattice.firstV,
                       lattice.lastV, j0, j1))
       continue;
+    // Positions from the lattice (the same arithmetic that stored them, so the
+    // same floats) rather than from memory: no cache miss per row.
     for (long j = j0; j <= j1; ++j) {
       const std::uint32_t row = entry.first + static_cast<std::uint32_t>(lattice.offset(i0, j));
-      for (std::uint32_t k = row; k <= row + std::uint32_t(i1 - i0); ++k)
-        if (squaredDistance(x, mSamples[k]) <= radius2) visit(k);
+      for (long i = i0; i <= i1; ++i)
+        if (squaredDistance(x, lattice.point(i, j)) <= radius2) visit(row + static_cast<std::uint32_t>(i - i0));
     }
   }
   if (mGrid) mGrid->forEachWithin(x, radius, mSamples, visit);

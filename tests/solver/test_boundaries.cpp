@@ -1,14 +1,17 @@
 // Unit tests of the boundary geometry: mirror maps, type I sampling (gaps,
 // SEED 7-point triangles), mesh loading, simplification, closure and inside tests.
 #include "libsph/Errors.h"
+#include "libsph/boundary/BoundaryParticles.h"
 #include "libsph/boundary/BoundarySampling.h"
 #include "libsph/boundary/BoxBoundary.h"
 #include "libsph/boundary/MeshBoundary.h"
 #include "libsph/boundary/PlaneBoundary.h"
+#include "libsph/boundary/TriangleBand.h"
 #include "libsph/io/AtomicFile.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <random>
 
@@ -131,6 +134,95 @@ TEST(BoxBoundary, EdgeAndCornerSamplesAppearOnce) {
     removeDuplicateSamples(lattices, gap * 0.01f);
     EXPECT_EQ(lattices.size(), samples.size()) << box->kind();
   }
+}
+
+TEST(BoundaryParticles, SampleListsEqualBruteForceOnWallsSlopeAndMesh) {
+  // Type I lists come from the walls' lattices (plane coordinates) and from a
+  // cell grid (mesh samples): every list must be exactly the brute-force set of
+  // samples within the radius, and the samples exactly the boundaries' samples.
+  std::vector<BoundaryPtr> boundaries;
+  boundaries.push_back(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(0.6f, 0.3f, 0.3f)));
+  boundaries.push_back(BoxBoundary::solid(Vec3r(0.2f, 0.15f, 0.08f), Vec3r(0.15f, 0.1f, 0.02f),
+                                          Transform::rotationFromEulerDegrees(Vec3r(0, 20, 10))));
+  const auto cubePath = writeTemp("cube_lists.obj", kCubeObj);
+  MeshObstacleOptions options;
+  options.transform.scale = 0.1f;
+  options.transform.translation = Vec3r(0.4f, 0.1f, 0.0f);
+  boundaries.push_back(MeshBoundary::load(cubePath, options));
+  std::filesystem::remove(cubePath);
+  const Real gap = 0.006f, radius = 0.011f;
+  BoundaryParticles virtualParticles;
+  virtualParticles.sample(boundaries, gap, radius);
+  const std::vector<Vec3r>& samples = virtualParticles.samplePositions();
+  std::size_t expected = 0;
+  for (const BoundaryPtr& b : boundaries) {
+    std::vector<Vec3r> own;
+    b->sampleSurface(gap, own);
+    expected += own.size();
+  }
+  EXPECT_EQ(samples.size(), expected);
+  const std::vector<std::size_t> perBoundary = virtualParticles.samplesPerBoundary(boundaries.size());
+  EXPECT_GT(perBoundary[2], 0u);
+
+  Particles particles;
+  std::mt19937 random(11);
+  std::uniform_real_distribution<float> u(-0.02f, 1.02f);
+  for (std::uint32_t k = 0; k < 3000; ++k)
+    particles.add(Vec3r(0.6f * u(random), 0.3f * u(random), 0.3f * u(random)), Vec3r::Zero(), k);
+  // Some exactly on a wall lattice and on mesh samples.
+  for (std::size_t k = 0; k < samples.size(); k += samples.size() / 50)
+    particles.add(samples[k], Vec3r::Zero(), std::uint32_t(particles.size()));
+  virtualParticles.update(particles, boundaries, radius, 0.02f, true, true);
+  const NeighborLists& lists = virtualParticles.sampleNeighbors();
+  std::size_t nonEmpty = 0;
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    std::vector<std::uint32_t> found(lists.begin(i), lists.end(i)), brute;
+    for (std::uint32_t k = 0; k < samples.size(); ++k)
+      if (squaredDistance(particles.position[i], samples[k]) <= radius * radius) brute.push_back(k);
+    std::sort(found.begin(), found.end());
+    ASSERT_EQ(found, brute) << "particle " << i << " at " << particles.position[i].transpose();
+    nonEmpty += brute.empty() ? 0 : 1;
+  }
+  EXPECT_GT(nonEmpty, 100u);
+}
+
+TEST(TriangleBand, ClosestPointEqualsAScanOverAllTriangles) {
+  // The scan bunny (900 triangles, 0.2 m): the band's answer within the range
+  // must be the scan's (same triangle, lowest index on ties; none beyond range).
+  const std::string path = std::string(CASCADE_SOURCE_DIR) + "/scenes/assets/bunny_res3.ply";
+  ASSERT_TRUE(std::filesystem::exists(path)) << path << " missing";
+  MeshObstacleOptions options;
+  options.targetTriangles = 900;
+  options.transform.scale = 1.28455f;
+  auto bunny = MeshBoundary::load(path, options);
+  const TriangleMesh& mesh = bunny->mesh();
+  std::vector<Vec3d> a, b, c;
+  for (const auto& t : mesh.triangles) {
+    a.push_back(mesh.vertices[t[0]].cast<double>());
+    b.push_back(mesh.vertices[t[1]].cast<double>());
+    c.push_back(mesh.vertices[t[2]].cast<double>());
+  }
+  const double range = 0.02;
+  const TriangleBand band(a, b, c, range);
+  Vec3r lo, hi;
+  bunny->bounds(lo, hi);
+  std::mt19937 random(13);
+  std::uniform_real_distribution<double> u(-0.1, 1.1);
+  std::size_t hits = 0;
+  for (int k = 0; k < 4000; ++k) {
+    const Vec3d p(lo.x() + u(random) * (hi.x() - lo.x()), lo.y() + u(random) * (hi.y() - lo.y()),
+                  lo.z() + u(random) * (hi.z() - lo.z()));
+    double best = range * range;
+    long bestTriangle = -1;
+    for (std::size_t t = 0; t < a.size(); ++t) {
+      const double d2 = (closestOnTriangle(p, a[t], b[t], c[t]) - p).squaredNorm();
+      if (d2 < best) best = d2, bestTriangle = long(t);
+    }
+    Vec3d point;
+    ASSERT_EQ(band.closest(p, point), bestTriangle) << "at " << p.transpose();
+    hits += bestTriangle >= 0;
+  }
+  EXPECT_GT(hits, 500u);
 }
 
 TEST(MeshSampling, SevenPointsPerTriangleSharedOnce) {
