@@ -4,7 +4,8 @@
 // step, wall time per simulated second and the average compression
 // mean(max(rho/rho_0 - 1, 0)), to hold against SPlisHSPlasH 2.16 DFSPH measured
 // here: 0.044 % average compression, 60.9 ms/step, about 33 s per simulated second.
-// CASCADE_PEER_END_TIME (s) shortens the run for profiling.
+// CASCADE_PEER_END_TIME (s) shortens the run for profiling; CASCADE_PEER_TOLERANCE sets
+// the density tolerance (default 0.04 %).
 #include "libsph/boundary/BoxBoundary.h"
 #include "libsph/solver/Simulation.h"
 #include "libsph/solver/TimeStepDFSPH.h"
@@ -23,6 +24,10 @@ TEST(DFSPHPeer, DamBreak59kParticles) {
   settings.fluid.spacing = Real(0.05);
   settings.solver.type = "dfsph";
   settings.solver.cflFactor = Real(0.5);
+  // The solver's tolerance on the predicted compression; the measured compression (of the
+  // densities at the start of each step) runs slightly above it.
+  settings.solver.densityTolerance = Real(0.0004);
+  if (const char* tolerance = std::getenv("CASCADE_PEER_TOLERANCE")) settings.solver.densityTolerance = Real(std::atof(tolerance));
   Simulation sim(settings);
   sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(5.0, 1.7, 3.5)));
   const std::size_t count = sim.addFluidBox(Vec3r(0, 0, 0), Vec3r(1.75, 1.7, 2.5));
@@ -58,5 +63,5 @@ TEST(DFSPHPeer, DamBreak59kParticles) {
             << "[dfsph peer] ms/step: neighbours " << t.neighbors / double(t.steps) << ", density "
             << t.density / double(t.steps) << ", solves " << t.forces / double(t.steps) << ", boundary "
             << t.boundary / double(t.steps) << ", integrate " << t.integrate / double(t.steps) << "\n";
-  EXPECT_LE(compression, 0.0005);
+  EXPECT_LE(compression, 0.00044);  // the peer's 0.044 %
 }
