@@ -8,7 +8,8 @@
 //    table, Z = x/a at T = t sqrt(2g/a), and the `height` probe at the back wall
 //    against the residual-column table, H = h/(2a) at tau = t sqrt(g/a), each as
 //    the RMS of the relative error over the table points the run covers;
-//    wall_s is this run's wall time (set-up included);
+//    wall_s is this run's wall time (set-up included), cpu_s its CPU time over all
+//    threads (std::clock; comparable when other work shares the machine);
 //  - hydrostatic tank: the same column in a tank of its own footprint, settled
 //    for kSettleTime; the floor pressure (Probes.h pressureAt) against rho g 2a
 //    and the compression mean(max(rho/rho_0 - 1, 0)) (average) and
@@ -33,6 +34,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <unistd.h>
 #include <fstream>
@@ -113,10 +115,12 @@ struct Row {
   long long fluid = 0;
   double wall = 0, frontRms = 0, heightRms = 0, pressureError = 0, densityAvg = 0, densityMax = 0;
   double hydroWall = 0, steps = 0, msPerStep = 0;
+  double cpu = 0;  // s of CPU time of the dam-break run, all threads (the machine may be shared)
 };
 
 void runDamBreak(Row& row) {
   const auto start = Clock::now();
+  const std::clock_t cpuStart = std::clock();
   const double s = row.spacing, width = s * kSlabLayers;
   Simulation sim(settingsFor(row.solver, s));
   sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(Real(8 * kA), Real(width), Real(4 * kA))));
@@ -137,6 +141,7 @@ void runDamBreak(Row& row) {
     }
   }
   row.wall = secondsSince(start);
+  row.cpu = double(std::clock() - cpuStart) / CLOCKS_PER_SEC;
   row.steps = double(sim.stepCount());
   row.msPerStep = 1e3 * row.wall / row.steps;
   int frontPoints = 0, heightPoints = 0;
@@ -255,20 +260,20 @@ BenchTable benchAccuracy() {
       runDamBreak(row);
       runHydrostatic(row);
       std::fprintf(stderr,
-                   "bench accuracy: %s a/s = %g (s = %.5g m, %lld particles): dam break %.1f s wall, %.0f steps, "
+                   "bench accuracy: %s a/s = %g (s = %.5g m, %lld particles): dam break %.1f s wall (%.1f s CPU), %.0f steps, "
                    "%.2f ms/step, front RMS %.2f %%, height RMS %.2f %%; tank %.1f s wall, floor pressure %.2f %%, "
                    "compression avg %.4f %% max %.3f %%\n",
-                   solver.c_str(), across, row.spacing, row.fluid, row.wall, row.steps, row.msPerStep,
+                   solver.c_str(), across, row.spacing, row.fluid, row.wall, row.cpu, row.steps, row.msPerStep,
                    100 * row.frontRms, 100 * row.heightRms, row.hydroWall, 100 * row.pressureError,
                    100 * row.densityAvg, 100 * row.densityMax);
       rows.push_back(row);
     }
   }
   BenchTable table("accuracy", {"solver", "spacing", "n_fluid", "wall_s", "front_rms", "height_rms", "pressure_err",
-                                "density_err_avg", "density_err_max"});
+                                "density_err_avg", "density_err_max", "cpu_s", "steps"});
   for (const Row& r : rows)
     table.addRow({r.solver, r.spacing, r.fluid, r.wall, r.frontRms, r.heightRms, r.pressureError, r.densityAvg,
-                  r.densityMax});
+                  r.densityMax, r.cpu, static_cast<long long>(r.steps)});
   const BenchPaths& paths = benchPaths();
   std::filesystem::path png;
   if (!paths.plot.empty())
