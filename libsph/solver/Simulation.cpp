@@ -24,6 +24,10 @@ namespace cascade {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+/// Largest fraction of the repulsion radius r0 a particle may travel per step
+/// (weakly compressible strategies; see computeTimeStep).
+constexpr double kBoundaryLayerSteps = 0.5;
 double millisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
@@ -179,20 +183,15 @@ std::size_t Simulation::addFluidBox(const Vec3r& lo, const Vec3r& hi, const Vec3
   return mParticles.size() - before;
 }
 
-void Simulation::compressHydrostatically(const FluidBoxRecord& box) {
-  // Monaghan (1994), J. Comput. Phys. 110, section 4: start at the hydrostatic
-  // density. The density here is summed (SEED (4)), so the lattice itself is
-  // compressed along gravity: a particle at height u above the bottom of the
-  // box moves to u' = integral_0^u rho_0 / rho(D - z) dz (mass per area kept),
-  // rho(d) from the equation of state at p = rho_0 |g| d, D the box height.
+bool Simulation::hydrostaticColumn(const FluidBoxRecord& box, Real& bottom, Real& depth) const {
   const SolverSettings& solver = mSettings.solver;
   const Real g = solver.gravity.norm();
-  if (!solver.hydrostaticStart || solver.type != "wcsph" || box.count == 0 || g <= 0 ||
-      mConstants.stiffness <= 0)
-    return;
+  if (!solver.hydrostaticStart || solver.type != "wcsph" || box.count == 0 || g <= 0 || mConstants.stiffness <= 0)
+    return false;
   const Vec3r up = -solver.gravity / g;
   const Real s = mSettings.fluid.spacing;
-  Real top = -std::numeric_limits<Real>::max(), bottom = std::numeric_limits<Real>::max();
+  Real top = -std::numeric_limits<Real>::max();
+  bottom = std::numeric_limits<Real>::max();
   std::size_t lowest = box.first;
   for (std::size_t i = box.first; i < box.first + box.count; ++i) {
     const Real height = mParticles.position[i].dot(up);
@@ -204,26 +203,39 @@ void Simulation::compressHydrostatically(const FluidBoxRecord& box) {
   const Vec3r below = mParticles.position[lowest] - s * up;
   bool resting = false;
   for (const BoundaryPtr& b : mBoundaries) resting = resting || b->isInside(below);
-  if (!resting) return;
+  if (!resting) return false;
   bottom -= Real(0.5) * s;  // the box faces lie half a spacing outside its particles
-  top += Real(0.5) * s;
-  const Real depthTotal = top - bottom;
-  const Real k = mConstants.stiffness, gamma = solver.taitExponent;
-  const bool tait = solver.equationOfState == EquationOfState::Tait;
+  depth = top + Real(0.5) * s - bottom;
+  return true;
+}
+
+Real Simulation::hydrostaticInverseRatio(Real depth) const {
   // rho_0 / rho at depth d: linear 1 / (1 + |g| d / k); Tait (1 + gamma |g| d / k)^(-1/gamma).
-  auto inverseRatio = [&](Real depth) {
-    return tait ? std::pow(Real(1) + gamma * g * depth / k, Real(-1) / gamma) : Real(1) / (Real(1) + g * depth / k);
-  };
+  const SolverSettings& solver = mSettings.solver;
+  const Real g = solver.gravity.norm(), k = mConstants.stiffness, gamma = solver.taitExponent;
+  return solver.equationOfState == EquationOfState::Tait ? std::pow(Real(1) + gamma * g * depth / k, Real(-1) / gamma)
+                                                          : Real(1) / (Real(1) + g * depth / k);
+}
+
+void Simulation::compressHydrostatically(const FluidBoxRecord& box) {
+  // Monaghan (1994), J. Comput. Phys. 110, section 4: start at the hydrostatic
+  // density. The density here is summed (SEED (4)), so the lattice itself is
+  // compressed along gravity: a particle at height u above the bottom of the
+  // box moves to u' = integral_0^u rho_0 / rho(D - z) dz (mass per area kept),
+  // rho(d) from the equation of state at p = rho_0 |g| d, D the box height.
+  Real bottom = 0, depthTotal = 0;
+  if (!hydrostaticColumn(box, bottom, depthTotal)) return;
+  const Vec3r up = -mSettings.solver.gravity.normalized();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(box.first, box.first + box.count, 1024), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       Vec3r& x = mParticles.position[i];
       const Real u = x.dot(up) - bottom;
       constexpr int kSteps = 32;  // midpoint rule; the integrand is smooth and within 1 % of 1
       Real compressed = 0;
-      for (int q = 0; q < kSteps; ++q) compressed += inverseRatio(depthTotal - (Real(q) + Real(0.5)) * u / kSteps);
+      for (int q = 0; q < kSteps; ++q) compressed += hydrostaticInverseRatio(depthTotal - (Real(q) + Real(0.5)) * u / kSteps);
       compressed *= u / kSteps;
       x += (compressed - u) * up;
-      mParticles.density[i] = mSettings.fluid.restDensity / inverseRatio(depthTotal - u);  // depth by mass above
+      mParticles.density[i] = mSettings.fluid.restDensity / hydrostaticInverseRatio(depthTotal - u);  // depth by mass above
     }
   });
 }
@@ -264,8 +276,18 @@ void Simulation::start() {
   if (!mTimeStep->needs(mSettings, mConstants).speedOfSoundInCfl) mConstants.speedOfSound = 0;  // CFL on v only
   mConstants.repulsionStrength =
       mSettings.boundary.repulsionStrength > 0 ? mSettings.boundary.repulsionStrength : expected * expected;
+  // r0 default: half a spacing, where the first layer sits with its mirror images
+  // completing the lattice; for a box starting hydrostatic, half the compressed
+  // spacing at its bottom, so the first layer starts at r0 where SEED (11) is zero,
+  // not inside the repulsion layer (3 g upwards at the default stiffness; 10.7 m/s
+  // after the first step of a fluid 100 times softer).
+  Real compression = 1;
+  for (const FluidBoxRecord& box : mPendingBoxes) {
+    Real bottom = 0, depth = 0;
+    if (hydrostaticColumn(box, bottom, depth)) compression = std::min(compression, hydrostaticInverseRatio(depth));
+  }
   mConstants.repulsionRadius = mSettings.boundary.repulsionRadius > 0 ? mSettings.boundary.repulsionRadius
-                                                                      : Real(0.5) * mSettings.fluid.spacing;
+                                                                      : Real(0.5) * mSettings.fluid.spacing * compression;
   mStarted = true;
   for (const FluidBoxRecord& box : mPendingBoxes) compressHydrostatically(box);
   mPendingBoxes.clear();
@@ -283,11 +305,20 @@ double Simulation::computeTimeStep() const {
       },
       [](Real a, Real b) { return std::max(a, b); });
   const double h = mConstants.supportRadius;
-  double dt = solver.cflFactor * h / (double(mConstants.speedOfSound) + std::sqrt(double(maxSpeed2)));
+  const double maxSpeed = std::sqrt(double(maxSpeed2));
+  double dt = solver.cflFactor * h / (double(mConstants.speedOfSound) + maxSpeed);
   const double nu = mSettings.fluid.viscosity / mSettings.fluid.restDensity;
   if (nu > 0) dt = std::min(dt, 0.125 * h * h / nu);
   const double forceFactor = mTimeStep->needs(mSettings, mConstants).forceStepFactor;
   if (mLastMaxAcceleration > 0) dt = std::min(dt, forceFactor * std::sqrt(h / double(mLastMaxAcceleration)));
+  // Boundary layer resolution (weakly compressible strategies with type I particles):
+  // no particle may cross more than half the repulsion radius r0 of SEED (11) in one
+  // step, or it jumps over the repulsion layer and through the wall. With the default
+  // stiffness (c = 10 v) the CFL above is several times smaller; this holds a soft
+  // fluid (c of the order of v) or a forced large CFL factor.
+  if (mConstants.speedOfSound > 0 && mSettings.boundary.repulsionParticles && mConstants.repulsionStrength > 0 &&
+      maxSpeed > 0)
+    dt = std::min(dt, kBoundaryLayerSteps * double(mConstants.repulsionRadius) / maxSpeed);
   return std::clamp(dt, double(solver.minTimeStep), double(solver.maxTimeStep));
 }
 

@@ -125,6 +125,11 @@ private:
   struct FluidBoxRecord {
     std::size_t first = 0, count = 0;
   };
+  /// The column of a box that starts hydrostatic (hydrostaticStart, WCSPH, resting on a
+  /// boundary): its bottom height along -gravity and its depth; false otherwise.
+  bool hydrostaticColumn(const FluidBoxRecord& box, Real& bottom, Real& depth) const;
+  /// rho_0 / rho at hydrostatic depth d (the equation of state at p = rho_0 |g| d).
+  Real hydrostaticInverseRatio(Real depth) const;
   void compressHydrostatically(const FluidBoxRecord& box);
   std::vector<FluidBoxRecord> mPendingBoxes;
   void reorder();
