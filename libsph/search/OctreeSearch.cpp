@@ -234,6 +234,9 @@ template <typename InnerChild>
 void OctreeSearch::splitNode(ChildBlock& block, std::uint32_t begin, std::uint32_t end, int level,
                              InnerChild&& innerChild) const {
   const std::uint64_t* keys = mKeys.data();
+  std::uint32_t corner[3];  // of this node's cube; a child one level down adds its digit's bits
+  cubeCorner(keys[begin], level, corner);
+  const std::uint32_t half = std::uint32_t(1) << (kLevels - level - 1);
   unsigned k = 0;
   std::uint32_t start = begin;
   while (start < end) {
@@ -260,7 +263,13 @@ void OctreeSearch::splitNode(ChildBlock& block, std::uint32_t begin, std::uint32
         childLevel = common;
       }
     }
-    setLane(block, k, start, childLevel, keys[start]);
+    if (childLevel == level + 1) {
+      for (int a = 0; a < 3; ++a) block.lo[a][k] = corner[a] | (((digit >> a) & 1u) * half);
+      block.begin[k] = start;
+      block.level[k] = static_cast<std::uint8_t>(childLevel);
+    } else {
+      setLane(block, k, start, childLevel, keys[start]);
+    }
     block.block[k] = inner ? innerChild(start, stop, childLevel, k) : kLeaf;
     ++k;
     start = stop;

@@ -13,7 +13,12 @@
 /// three bits. A node whose points all fall into one child is not stored
 /// (its only child takes its place: the cubes are the same octree cubes, the
 /// chain of one-child nodes is just skipped). Points that share a lattice cell
-/// (duplicates) cannot be split and share one leaf.
+/// (duplicates) cannot be split and share one leaf. The tree is stored as
+/// one record per inner node holding its children (ChildBlock below: the
+/// children's cubes, point runs and records side by side, so a walk step tests
+/// all children of a node at once and touches three cache lines); the top of
+/// the tree is split breadth first, the subtrees below in parallel, each into
+/// its own region of a buffer kept between builds, depth first along the curve.
 ///
 /// Query: the cube is mapped to the same lattice (conservatively, so that no
 /// point within the radius is missed), the walk descends into every node whose

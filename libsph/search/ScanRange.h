@@ -97,6 +97,14 @@ struct ScanBaseline {
 #endif
     return n;
   }
+  /// scan() for two queries over the same places: adds to nA and nB.
+  static inline void scanPair(const Real* xs, const Real* ys, const Real* zs, const std::uint32_t* order,
+                              std::uint32_t begin, std::uint32_t end, const Real a[3], const Real b[3],
+                              Real radius2, std::uint32_t excludeA, std::uint32_t excludeB, std::uint32_t* outA,
+                              std::uint32_t* outB, std::uint32_t& nA, std::uint32_t& nB) {
+    nA += scan(xs, ys, zs, order, begin, end, a[0], a[1], a[2], radius2, excludeA, outA + nA);
+    nB += scan(xs, ys, zs, order, begin, end, b[0], b[1], b[2], radius2, excludeB, outB + nB);
+  }
 };
 
 #ifdef CASCADE_SCAN_X86
@@ -145,6 +153,49 @@ struct ScanAvx2 {
       n += static_cast<std::uint32_t>(__builtin_popcount(mask));
     }
     return n;
+  }
+
+  /// scan() for two queries over the same places (the points loaded once): adds to nA and nB.
+  __attribute__((target("avx2,popcnt"))) static inline void scanPair(
+      const Real* xs, const Real* ys, const Real* zs, const std::uint32_t* order, std::uint32_t begin,
+      std::uint32_t end, const Real a[3], const Real b[3], Real radius2, std::uint32_t excludeA,
+      std::uint32_t excludeB, std::uint32_t* outA, std::uint32_t* outB, std::uint32_t& nA, std::uint32_t& nB) {
+    const auto& table = compressTable().lanes;
+    const __m256 ax = _mm256_set1_ps(a[0]), ay = _mm256_set1_ps(a[1]), az = _mm256_set1_ps(a[2]);
+    const __m256 bx = _mm256_set1_ps(b[0]), by = _mm256_set1_ps(b[1]), bz = _mm256_set1_ps(b[2]);
+    const __m256 vr2 = _mm256_set1_ps(radius2);
+    const __m256i vexcludeA = _mm256_set1_epi32(static_cast<int>(excludeA));
+    const __m256i vexcludeB = _mm256_set1_epi32(static_cast<int>(excludeB));
+    std::uint32_t na = nA, nb = nB;
+    for (std::uint32_t j = begin; j < end; j += 8) {
+      const __m256 x = _mm256_loadu_ps(xs + j), y = _mm256_loadu_ps(ys + j), z = _mm256_loadu_ps(zs + j);
+      const __m256i index = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(order + j));
+      const unsigned tail = end - j < 8 ? (1u << (end - j)) - 1u : 0xffu;
+      const __m256 dxa = _mm256_sub_ps(ax, x), dya = _mm256_sub_ps(ay, y), dza = _mm256_sub_ps(az, z);
+      const __m256 d2a = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dxa, dxa), _mm256_mul_ps(dya, dya)),
+                                       _mm256_mul_ps(dza, dza));
+      const __m256 dxb = _mm256_sub_ps(bx, x), dyb = _mm256_sub_ps(by, y), dzb = _mm256_sub_ps(bz, z);
+      const __m256 d2b = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dxb, dxb), _mm256_mul_ps(dyb, dyb)),
+                                       _mm256_mul_ps(dzb, dzb));
+      const unsigned maskA =
+          static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(d2a, vr2, _CMP_LE_OQ))) &
+          ~static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(index, vexcludeA)))) &
+          tail;
+      const unsigned maskB =
+          static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(d2b, vr2, _CMP_LE_OQ))) &
+          ~static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(index, vexcludeB)))) &
+          tail;
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(outA + na),
+                          _mm256_permutevar8x32_epi32(
+                              index, _mm256_load_si256(reinterpret_cast<const __m256i*>(table[maskA]))));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(outB + nb),
+                          _mm256_permutevar8x32_epi32(
+                              index, _mm256_load_si256(reinterpret_cast<const __m256i*>(table[maskB]))));
+      na += static_cast<std::uint32_t>(__builtin_popcount(maskA));
+      nb += static_cast<std::uint32_t>(__builtin_popcount(maskB));
+    }
+    nA = na;
+    nB = nb;
   }
 };
 

@@ -371,6 +371,24 @@ struct GridQuery {
             makeStencil(groupKey[g], stencil);
             haveStencil = true;
           }
+          if (s + 1 < groupStart[g + 1]) {
+            // Two queries of the cell at once: the points are loaded once for both.
+            const std::uint32_t q2 = queryOrder[s + 1];
+            const Real a[3] = {qx, qy, qz}, b[3] = {xs[s + 1], ys[s + 1], zs[s + 1]};
+            std::uint32_t* out = writer.reserve(2 * (stencil.candidates + kScanOverwrite));
+            std::uint32_t* out2 = out + stencil.candidates + kScanOverwrite;
+            std::uint32_t found = 0, found2 = 0;
+            for (int r = 0; r < stencil.mergedCount; ++r)
+              Scan::scanPair(xs, ys, zs, order, stencil.merged[r].begin, stencil.merged[r].end, a, b, radius2,
+                             exclude, excludeSelf ? q2 : kNoIndex, out, out2, found, found2);
+            writer.advance(found);
+            writer.finishQuery(q);
+            std::memmove(out + found, out2, found2 * sizeof(std::uint32_t));
+            writer.advance(found2);
+            writer.finishQuery(q2);
+            ++s;
+            continue;
+          }
           std::uint32_t* out = writer.reserve(stencil.candidates);
           std::uint32_t found = 0;
           for (int r = 0; r < stencil.mergedCount; ++r)

@@ -218,6 +218,8 @@ CASCADE_WCSPH_TARGET ForceSums forceSumsAvx2(const ForceConstants& k, const wcsp
     const __m256 r2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(rx, rx), _mm256_mul_ps(ry, ry)), _mm256_mul_ps(rz, rz));
     __m256 valid = _mm256_and_ps(_mm256_cmp_ps(r2, h2, _CMP_LT_OQ), _mm256_cmp_ps(r2, zero, _CMP_GT_OQ));
     if (lanes < 8) valid = _mm256_and_ps(valid, laneMask(lanes));
+    // Mirror images are mostly farther than h: skip blocks with none within.
+    if (_mm256_testz_ps(valid, valid)) continue;
     const __m256 len = _mm256_sqrt_ps(r2);
     const __m256 diff = _mm256_sub_ps(h, len);
     const __m256 invRhoj = _mm256_div_ps(one, f[7]);
