@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <filesystem>
 #include <random>
 
@@ -27,6 +28,22 @@ Real largestHole(const std::vector<Vec3r>& samples, const std::vector<Vec3r>& pr
     worst = std::max(worst, best);
   }
   return worst;
+}
+
+/// Uniform random points on the mesh's triangles (the k-th on triangle k mod count).
+std::vector<Vec3r> randomPointsOnTriangles(const TriangleMesh& mesh, int count, unsigned seed) {
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<float> u(0, 1);
+  std::vector<Vec3r> points;
+  for (int k = 0; k < count; ++k) {
+    float a = u(random), b = u(random);
+    if (a + b > 1) a = 1 - a, b = 1 - b;
+    const std::array<std::uint32_t, 3>& tri = mesh.triangles[std::size_t(k) % mesh.triangles.size()];
+    const Vec3r p0 = mesh.vertices[tri[0]].cast<Real>(), p1 = mesh.vertices[tri[1]].cast<Real>(),
+                p2 = mesh.vertices[tri[2]].cast<Real>();
+    points.push_back(p0 + a * (p1 - p0) + b * (p2 - p0));
+  }
+  return points;
 }
 
 std::filesystem::path writeTemp(const std::string& name, const std::string& text) {
@@ -243,15 +260,7 @@ TEST(MeshSampling, SubdividesUntilNoGapExceedsTheLimit) {
   std::size_t subdivided = 0;
   const std::vector<Vec3r> samples = sampleTrianglesSeed(mesh, gap, &subdivided);
   EXPECT_EQ(subdivided, 1u);
-  std::mt19937 random(5);
-  std::uniform_real_distribution<float> u(0, 1);
-  std::vector<Vec3r> probes;
-  for (int k = 0; k < 500; ++k) {
-    float a = u(random), b = u(random);
-    if (a + b > 1) a = 1 - a, b = 1 - b;
-    probes.emplace_back(a, b, 0);
-  }
-  EXPECT_LE(largestHole(samples, probes), gap);
+  EXPECT_LE(largestHole(samples, randomPointsOnTriangles(mesh, 500, 5)), gap);
 }
 
 TEST(MeshSampling, NeighboursOfDifferentSubdivisionShareEdgePointsOnce) {
@@ -273,18 +282,7 @@ TEST(MeshSampling, NeighboursOfDifferentSubdivisionShareEdgePointsOnce) {
   // interior grid points (n-1)(n-2)/2 (n = 32: 465; n = 4: 3) and m^2 leaf
   // centroids (256 and 4).
   EXPECT_EQ(samples.size(), 4u + 3u * 31u + 2u * 3u + 465u + 256u + 3u + 4u);
-  std::mt19937 random(7);
-  std::uniform_real_distribution<float> u(0, 1);
-  std::vector<Vec3r> probes;
-  for (int k = 0; k < 400; ++k) {
-    float a = u(random), b = u(random);
-    if (a + b > 1) a = 1 - a, b = 1 - b;
-    const std::array<std::uint32_t, 3>& tri = mesh.triangles[k % 2];
-    const Vec3r p0 = mesh.vertices[tri[0]].cast<Real>(), p1 = mesh.vertices[tri[1]].cast<Real>(),
-                p2 = mesh.vertices[tri[2]].cast<Real>();
-    probes.push_back(p0 + a * (p1 - p0) + b * (p2 - p0));
-  }
-  EXPECT_LE(largestHole(samples, probes), gap);
+  EXPECT_LE(largestHole(samples, randomPointsOnTriangles(mesh, 400, 7)), gap);
 }
 
 TEST(MeshBoundary, CubeInsideTestMirrorsAndTransform) {
