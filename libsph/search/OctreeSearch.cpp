@@ -669,14 +669,16 @@ void OctreeQuery::runChunk(std::uint32_t placeBegin, std::uint32_t placeEnd, Chu
                                            candidateLo[2].data()};
     const std::uint32_t* const boxHi[3] = {candidateHi[0].data(), candidateHi[1].data(),
                                            candidateHi[2].data()};
+    std::size_t groupPoints = 0;  // bounds what one query of the group can list
+    for (std::size_t c = 0; c < candidateCount; ++c) groupPoints += runEnds[c] - runBegins[c];
     for (int g = 0; g < size; ++g) {
       const Query& query = group[g];
-      std::uint32_t runBegin = 0, runEnd = 0;
+      std::uint32_t runBegin = 0, runEnd = 0, found = 0;
+      std::uint32_t* const out = writer.reserve(groupPoints);
       auto flush = [&] {
         if (runEnd == runBegin) return;
-        std::uint32_t* out = writer.reserve(runEnd - runBegin);
-        writer.advance(Scan::scan(xs, ys, zs, order, runBegin, runEnd, query.x, query.y, query.z,
-                                  query.radius2, query.exclude, out));
+        found += Scan::scan(xs, ys, zs, order, runBegin, runEnd, query.x, query.y, query.z, query.radius2,
+                            query.exclude, out + found);
       };
       for (std::size_t first = 0; first < candidateCount; first += 8) {
         unsigned mask = BoxFilter::mask8(boxLo, boxHi, first, query.lo, query.hi);
@@ -692,6 +694,7 @@ void OctreeQuery::runChunk(std::uint32_t placeBegin, std::uint32_t placeEnd, Chu
         }
       }
       flush();
+      writer.advance(found);
       writer.finishQuery(query.index);
     }
     place += size;
