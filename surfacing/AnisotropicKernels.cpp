@@ -36,6 +36,7 @@ AnisotropicKernels computeAnisotropicKernels(const ParticleGrid& grid,
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.cellCount(), 16), [&](const auto& cells) {
     std::vector<std::uint32_t> near;
     std::vector<float> nearX, nearY, nearZ, nearR2;
+    std::vector<std::uint32_t> nearWithin;
     for (std::size_t cell = cells.begin(); cell != cells.end(); ++cell) {
       // Candidates from the 27 cells around this one, once for all its particles,
       // as float columns so that the distance pass below vectorises.
@@ -46,6 +47,7 @@ AnisotropicKernels computeAnisotropicKernels(const ParticleGrid& grid,
       nearY.resize(m);
       nearZ.resize(m);
       nearR2.resize(m);
+      nearWithin.resize(m + 1);
       for (std::size_t c = 0; c < m; ++c) {
         const Eigen::Vector3f p = position[near[c]].template cast<float>();
         nearX[c] = p.x();
@@ -65,13 +67,20 @@ AnisotropicKernels computeAnisotropicKernels(const ParticleGrid& grid,
           const float ox = cx[c] - px, oy = cy[c] - py, oz = cz[c] - pz;
           r2s[c] = ox * ox + oy * oy + oz * oz;
         }
+        // The neighbours, in candidate order, without a branch per candidate.
+        std::uint32_t* __restrict within = nearWithin.data();
+        std::size_t neighbors = 0;
+        for (std::size_t c = 0; c < m; ++c) {
+          within[neighbors] = std::uint32_t(c);
+          neighbors += std::size_t((r2s[c] < radius2) & (near[c] != i));
+        }
         float weightSumF = 0;
         Eigen::Vector3f weightedSumF = Eigen::Vector3f::Zero();
         float xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0;
         int count = 0;
-        for (std::size_t c = 0; c < m; ++c) {
+        for (std::size_t n = 0; n < neighbors; ++n) {
+          const std::uint32_t c = within[n];
           const float r2 = r2s[c];
-          if (r2 >= radius2 || near[c] == i) continue;
           const Eigen::Vector3f offset(cx[c] - px, cy[c] - py, cz[c] - pz);
           const float q = std::sqrt(r2) * inverseRadius;
           const float w = 1 - q * q * q;  // Yu & Turk eq. 11

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -69,7 +70,74 @@ char* putIndex(char* out, std::uint64_t value) {
   return out + (end - p);
 }
 
-char* putFloat(char* out, float value) { return std::to_chars(out, out + 32, value).ptr; }
+/// 10^k as doubles, k in [-60, 60].
+struct Pow10Table {
+  double value[121];
+  Pow10Table() {
+    for (int k = -60; k <= 60; ++k) value[k + 60] = std::pow(10.0, k);
+  }
+};
+
+/// A float as text that reads back to the same float: 9 significant digits
+/// (FLT_DECIMAL_DIG, enough for every float), trailing zeros dropped, plain
+/// notation for 1e-5 <= |value| < 1e9. The digits come from the exact double of
+/// the value times a power of ten (error ~1e-16, far inside the half unit of
+/// the 9th digit that the round trip allows); about twice as fast as
+/// std::to_chars' shortest form, which is a text or two shorter.
+char* putFloat(char* out, float value) {
+  if (!std::isfinite(value) || value == 0) return std::to_chars(out, out + 32, value).ptr;
+  static const Pow10Table table;
+  const double* pow10 = table.value + 60;
+  double x = value;
+  if (x < 0) {
+    *out++ = '-';
+    x = -x;
+  }
+  std::uint32_t bits;
+  std::memcpy(&bits, &value, sizeof bits);
+  const int exponent2 = int((bits >> 23) & 0xff) - 127;  // |value| in [2^e, 2^(e+1)) for normal floats
+  int exponent10 = exponent2 < -126 ? -46 : (exponent2 * 1233) >> 12;  // floor(log10 |value|), or one less
+  while (x >= pow10[exponent10 + 1]) ++exponent10;
+  std::uint32_t digits = std::uint32_t(x * pow10[8 - exponent10] + 0.5);
+  if (digits >= 1000000000u) {  // rounded up to 10^9
+    digits = (digits + 5) / 10;
+    ++exponent10;
+  }
+  char d[9];
+  putIndex(d, digits);  // exactly 9 digits: digits >= 10^8
+  int last = 8;         // last significant digit
+  while (last > 0 && d[last] == '0') --last;
+  if (exponent10 >= 9 || exponent10 < -5) {  // d.ddde+XX
+    *out++ = d[0];
+    if (last > 0) {
+      *out++ = '.';
+      std::memcpy(out, d + 1, std::size_t(last));
+      out += last;
+    }
+    *out++ = 'e';
+    int e = exponent10;
+    *out++ = e < 0 ? '-' : '+';
+    e = std::abs(e);
+    *out++ = char('0' + e / 10);
+    *out++ = char('0' + e % 10);
+    return out;
+  }
+  if (exponent10 >= 0) {
+    std::memcpy(out, d, std::size_t(exponent10 + 1));
+    out += exponent10 + 1;
+    if (last > exponent10) {
+      *out++ = '.';
+      std::memcpy(out, d + exponent10 + 1, std::size_t(last - exponent10));
+      out += last - exponent10;
+    }
+    return out;
+  }
+  *out++ = '0';
+  *out++ = '.';
+  for (int zero = 0; zero < -exponent10 - 1; ++zero) *out++ = '0';
+  std::memcpy(out, d, std::size_t(last + 1));
+  return out + last + 1;
+}
 
 /// "tag x y z\n" with the axis mapping applied.
 char* putVector(char* out, const char* tag, std::size_t tagLength, const Eigen::Vector3f& v, ObjAxes axes) {
@@ -88,10 +156,12 @@ char* putVector(char* out, const char* tag, std::size_t tagLength, const Eigen::
 struct ObjBlock {
   enum Section { Vertices, Normals, Faces } section = Vertices;
   std::size_t begin = 0, end = 0;
-  std::string text;
+  char* text = nullptr;  // one of the writer's reused buffers
+  std::size_t size = 0;
 };
 
-constexpr std::size_t kObjBlockLines = 32768;
+constexpr std::size_t kObjBlockLines = 16384;
+constexpr std::size_t kObjBlocksInFlight = 8;
 constexpr std::size_t kMaxVectorLine = 4 + 3 * 33 + 1;    // "vn" and three floats
 constexpr std::size_t kMaxFaceLine = 2 + 3 * (2 * 20 + 3) + 1;
 
@@ -133,11 +203,7 @@ void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const
   addSection(ObjBlock::Faces, mesh.triangles.size());
 
   auto format = [&](ObjBlock& block) {
-    std::size_t capacity = (block.end - block.begin) * (block.section == ObjBlock::Faces ? kMaxFaceLine : kMaxVectorLine);
-    if (block.section == ObjBlock::Faces)
-      for (const auto& group : mesh.groups) capacity += group.name.size() + 3;
-    block.text.resize(capacity);
-    char* out = block.text.data();
+    char* out = block.text;
     switch (block.section) {
       case ObjBlock::Vertices:
         for (std::size_t i = block.begin; i < block.end; ++i) out = putVector(out, "v", 1, mesh.vertices[i], axes);
@@ -171,8 +237,19 @@ void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const
         break;
       }
     }
-    block.text.resize(std::size_t(out - block.text.data()));
+    block.size = std::size_t(out - block.text);
   };
+  // Buffers reused round robin: block i and block i + kObjBlocksInFlight are never
+  // in the pipeline together (its output stage is serial and in order). Reusing
+  // them spares the page faults of fresh multi-megabyte allocations.
+  std::size_t capacity = kObjBlockLines * std::max(kMaxFaceLine, kMaxVectorLine);
+  for (const auto& group : mesh.groups) capacity += group.name.size() + 3;
+  std::vector<std::unique_ptr<char[]>> buffers(std::min(kObjBlocksInFlight, blocks.size()));
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    auto& buffer = buffers[b % kObjBlocksInFlight];
+    if (!buffer) buffer.reset(new char[capacity]);
+    blocks[b].text = buffer.get();
+  }
 
   writeFileAtomically(path, [&](const std::filesystem::path& temp) {
     std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(temp.c_str(), "wb"), &std::fclose);
@@ -182,7 +259,7 @@ void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const
     // Format blocks in parallel, write them in file order; a few blocks in flight bound the memory.
     std::size_t next = 0;
     tbb::parallel_pipeline(
-        16,
+        kObjBlocksInFlight,
         tbb::make_filter<void, ObjBlock*>(tbb::filter_mode::serial_in_order,
                                           [&](tbb::flow_control& control) -> ObjBlock* {
                                             if (next == blocks.size()) {
@@ -197,9 +274,7 @@ void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const
                                                      return block;
                                                    }) &
             tbb::make_filter<ObjBlock*, void>(tbb::filter_mode::serial_in_order, [&](ObjBlock* block) {
-              if (!failed && std::fwrite(block->text.data(), 1, block->text.size(), file.get()) != block->text.size())
-                failed = true;
-              std::string().swap(block->text);
+              if (!failed && std::fwrite(block->text, 1, block->size, file.get()) != block->size) failed = true;
             }));
     if (failed || std::fflush(file.get()) != 0) throw std::runtime_error(path.string() + ": write failed");
   });

@@ -41,8 +41,8 @@ enum class ObjAxes {
   ZUpToYUp,  ///< a z-up point (x, y, z) stored as (x, z, -y), for y-up importers
 };
 
-/// Writes OBJ ("v", "vn", "g", "f a//a b//b c//c"), atomically. Numbers are the
-/// shortest text that reads back to the same float (std::to_chars). Blocks of
+/// Writes OBJ ("v", "vn", "g", "f a//a b//b c//c"), atomically. Numbers have 9
+/// significant digits (trailing zeros dropped): they read back to the same float. Blocks of
 /// lines are formatted in parallel (TBB) and written in order, so the file is the
 /// same as a serial writer's.
 void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh);
