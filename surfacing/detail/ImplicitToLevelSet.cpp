@@ -12,6 +12,7 @@ openvdb::FloatGrid::Ptr implicitToLevelSet(const openvdb::FloatTree& field, floa
                                            double voxelSize, int halfWidth) {
   using LeafT = openvdb::FloatTree::LeafNodeType;
   constexpr int D = LeafT::DIM, P = D + 2;
+  static_assert(D == 8, "leaf offsets below are (x << 6) | (y << 3) | z");
   const float background = float(halfWidth * voxelSize);
   auto tree = std::make_shared<openvdb::FloatTree>(field, background, openvdb::TopologyCopy());
   const float inverse2dx = float(0.5 / voxelSize), inverseDx = float(1 / voxelSize);
@@ -25,16 +26,17 @@ openvdb::FloatGrid::Ptr implicitToLevelSet(const openvdb::FloatTree& field, floa
       for (auto& row : plane)
         for (float& v : row) v = undefined;
     const openvdb::Coord origin = leaf.origin();
-    const LeafT* self = field.probeConstLeaf(origin);
+    const float* self = field.probeConstLeaf(origin)->buffer().data();  // x-major, z fastest
     for (int x = 0; x < D; ++x)
       for (int y = 0; y < D; ++y)
-        for (int z = 0; z < D; ++z) padded[x + 1][y + 1][z + 1] = self->getValue(LeafT::coordToOffset(openvdb::Coord(x, y, z)));
+        for (int z = 0; z < D; ++z) padded[x + 1][y + 1][z + 1] = self[(x << 6) | (y << 3) | z];
     for (int axis = 0; axis < 3; ++axis)
       for (int side = 0; side < 2; ++side) {
         openvdb::Coord neighborOrigin = origin;
         neighborOrigin[axis] += side ? D : -D;
-        const LeafT* neighbor = field.probeConstLeaf(neighborOrigin);
-        if (!neighbor) continue;  // stays undefined: one-sided differences
+        const LeafT* neighborLeaf = field.probeConstLeaf(neighborOrigin);
+        if (!neighborLeaf) continue;  // stays undefined: one-sided differences
+        const float* neighbor = neighborLeaf->buffer().data();
         const int layer = side ? 0 : D - 1;  // the neighbour's layer facing us
         const int target = side ? D + 1 : 0;
         for (int a = 0; a < D; ++a)
@@ -47,7 +49,7 @@ openvdb::FloatGrid::Ptr implicitToLevelSet(const openvdb::FloatTree& field, floa
             index[axis] = target;
             index[(axis + 1) % 3] = a + 1;
             index[(axis + 2) % 3] = b + 1;
-            padded[index[0]][index[1]][index[2]] = neighbor->getValue(LeafT::coordToOffset(local));
+            padded[index[0]][index[1]][index[2]] = neighbor[LeafT::coordToOffset(local)];
           }
       }
     const float sign = insideAbove ? -1.0f : 1.0f;
