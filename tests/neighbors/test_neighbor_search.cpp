@@ -342,15 +342,14 @@ TEST(MortonCode, EncodeDecodeRoundTrip) {
   }
 }
 
-TEST(OctreeSearch, LeavesHoldAtMostOneParticleAndCubesContainTheirPoints) {
-  auto points = damBreakWithDroplets(0.01f, 10, 10, 10, 40, 13);
-  points.push_back(points[17]);  // a duplicate: cannot be split, the pair shares a leaf
-  search::OctreeSearch octree;
-  octree.build(points.data(), points.size(), 0.02f);
+/// The tree's nodes partition the points: every inner node's children split
+/// its run of places in order, inside its cube; the leaves list every point
+/// once. Returns the number of leaves.
+static std::size_t expectConsistentTree(const search::OctreeSearch& octree, std::size_t pointCount) {
   std::size_t leaves = 0, listed = 0;
   const std::vector<search::OctreeSearch::Node> nodes = octree.nodes();
   for (const auto& node : nodes) {
-    ASSERT_LT(node.begin, node.end);
+    EXPECT_LT(node.begin, node.end);
     if (node.childCount == 0) {
       ++leaves;
       listed += node.end - node.begin;
@@ -371,7 +370,16 @@ TEST(OctreeSearch, LeavesHoldAtMostOneParticleAndCubesContainTheirPoints) {
       EXPECT_EQ(expect, node.end);
     }
   }
-  EXPECT_EQ(listed, points.size());
+  EXPECT_EQ(listed, pointCount);
+  return leaves;
+}
+
+TEST(OctreeSearch, LeavesHoldAtMostOneParticleAndCubesContainTheirPoints) {
+  auto points = damBreakWithDroplets(0.01f, 10, 10, 10, 40, 13);
+  points.push_back(points[17]);  // a duplicate: cannot be split, the pair shares a leaf
+  search::OctreeSearch octree;
+  octree.build(points.data(), points.size(), 0.02f);
+  const std::size_t leaves = expectConsistentTree(octree, points.size());
   EXPECT_EQ(octree.largestLeaf(), 2u);  // only the duplicate pair shares a leaf
   EXPECT_GE(leaves, points.size() - 1);
 
@@ -379,4 +387,22 @@ TEST(OctreeSearch, LeavesHoldAtMostOneParticleAndCubesContainTheirPoints) {
   bucket.build(points.data(), points.size(), 0.02f);
   EXPECT_LE(bucket.largestLeaf(), 8u);
   EXPECT_LT(bucket.nodeCount(), octree.nodeCount());
+}
+
+// Above 32768 points the top of the tree is split breadth first and the
+// subtrees below in parallel, each into its own region of the kept buffer:
+// checked against the grid (itself checked against brute force above), also
+// after rebuilds with fewer and then more points (the buffer is reused).
+TEST(OctreeSearch, LargeSetsMatchTheGridAcrossRebuilds) {
+  const auto points = damBreakWithDroplets(0.01f, 40, 30, 60, 500, 11);  // 72,500 points
+  search::OctreeSearch octree;
+  search::UniformGridSearch grid;
+  for (const std::size_t count : {points.size(), std::size_t(20000), points.size()}) {
+    NeighborLists expected, got;
+    grid.findNeighbors(points.data(), count, 0.021f, expected);
+    octree.findNeighbors(points.data(), count, 0.021f, got);
+    ASSERT_EQ(got.size(), count);
+    ASSERT_EQ(toSets(got), toSets(expected)) << count << " points";
+    EXPECT_EQ(expectConsistentTree(octree, count), count);  // one point per leaf
+  }
 }
