@@ -199,14 +199,16 @@ void BoundaryParticles::update(const Particles& particles, const std::vector<Bou
                                Real sampleRadius, Real mirrorRange, bool withSamples,
                                bool withMirrors) {
   const std::size_t n = particles.size();
-  constexpr std::size_t kChunk = 1024;
+  // Fixed chunks (deterministic output order), small enough to balance two
+  // threads on a few thousand particles; their buffers persist across steps.
+  constexpr std::size_t kChunk = 256;
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
-  struct ChunkOut {
-    std::vector<MirrorMap> maps;
-    std::vector<std::uint32_t> samples;
-    std::size_t mapBase = 0, sampleBase = 0;
-  };
-  std::vector<ChunkOut> out(chunks);
+  std::vector<ChunkOut>& out = mChunks;
+  if (out.size() < chunks) out.resize(chunks);
+  for (std::size_t c = 0; c < chunks; ++c) {
+    out[c].maps.clear();
+    out[c].samples.clear();
+  }
   mMirrorOffsets.resize(n + 1);
   mSampleNeighbors.offsets.resize(n + 1);
   const bool samples = withSamples && !mSamples.empty();
@@ -230,7 +232,8 @@ void BoundaryParticles::update(const Particles& particles, const std::vector<Bou
   });
   // Chunk bases (serial over chunks, in order: deterministic).
   std::size_t mapTotal = 0, sampleTotal = 0;
-  for (ChunkOut& chunk : out) {
+  for (std::size_t c = 0; c < chunks; ++c) {
+    ChunkOut& chunk = out[c];
     chunk.mapBase = mapTotal;
     chunk.sampleBase = sampleTotal;
     mapTotal += chunk.maps.size();

@@ -78,6 +78,12 @@ private:
   std::vector<std::uint32_t> mMirrorOffsets{0};
   std::vector<MirrorMap> mMirrors;
   std::vector<std::uint32_t> mLayer;
+  struct ChunkOut {  ///< update()'s per-chunk output
+    std::vector<MirrorMap> maps;
+    std::vector<std::uint32_t> samples;
+    std::size_t mapBase = 0, sampleBase = 0;
+  };
+  std::vector<ChunkOut> mChunks;
   struct Grid;
   std::unique_ptr<Grid> mGrid;
 };
