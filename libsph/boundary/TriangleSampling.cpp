@@ -7,10 +7,15 @@
 // 2m segments, plus one centroid per leaf. So the samples are generated
 // directly, each once: every mesh vertex; along every edge the points of the
 // finer of its two triangles' grids; inside every triangle its grid's interior
-// points and its leaves' centroids. No hash pass over (millions of) repeated points.
+// points and its leaves' centroids: no repeated points from shared leaf
+// corners (the final hash pass only meets the few that degenerate triangles
+// of hole filling repeat).
 #include "libsph/boundary/MeshBoundary.h"
 
+#include "libsph/boundary/BoundarySampling.h"
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 
@@ -30,9 +35,19 @@ std::vector<Vec3r> sampleTrianglesSeed(const TriangleMesh& mesh, Real maxGap, st
   std::vector<Vec3r> samples;
   std::size_t subdivided = 0;
   const auto vertex = [&](std::uint32_t v) { return mesh.vertices[v].cast<double>(); };
+  // Vertices at the same position (seams left by hole filling) are one vertex:
+  // each position is sampled once, and edges are keyed by these canonical indices.
+  std::vector<std::uint32_t> canonical(mesh.vertices.size());
+  {
+    std::map<std::array<float, 3>, std::uint32_t> first;
+    for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+      const Eigen::Vector3f& x = mesh.vertices[v];
+      canonical[v] = first.emplace(std::array<float, 3>{x.x(), x.y(), x.z()}, std::uint32_t(v)).first->second;
+    }
+  }
   // Vertices: once each.
   std::vector<char> used(mesh.vertices.size(), 0);
-  for (const auto& t : mesh.triangles) used[t[0]] = used[t[1]] = used[t[2]] = 1;
+  for (const auto& t : mesh.triangles) used[canonical[t[0]]] = used[canonical[t[1]]] = used[canonical[t[2]]] = 1;
   for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
     if (used[v]) samples.push_back(mesh.vertices[v].cast<Real>());
   // Subdivision of each triangle; each edge takes the finer of its two triangles.
@@ -46,7 +61,7 @@ std::vector<Vec3r> sampleTrianglesSeed(const TriangleMesh& mesh, Real maxGap, st
     segments[t] = subdivisionSegments(longest, maxGap);
     if (segments[t] > 1) ++subdivided;
     for (int e = 0; e < 3; ++e) {
-      std::uint32_t a = tri[e], b = tri[(e + 1) % 3];
+      std::uint32_t a = canonical[tri[e]], b = canonical[tri[(e + 1) % 3]];
       if (a > b) std::swap(a, b);
       long& edge = edgeSegments[{a, b}];
       edge = std::max(edge, segments[t]);
@@ -74,6 +89,9 @@ std::vector<Vec3r> sampleTrianglesSeed(const TriangleMesh& mesh, Real maxGap, st
           samples.push_back(at((double(i) + 2 * third) / double(m), (double(j) + 2 * third) / double(m)));  // downward
       }
   }
+  // Degenerate or folded triangles (crack fans of hole filling) put points
+  // where an edge or another triangle already has one: keep those once.
+  removeDuplicateSamples(samples, maxGap * Real(1e-3));
   if (subdividedTriangles) *subdividedTriangles = subdivided;
   return samples;
 }

@@ -242,6 +242,22 @@ TEST(TriangleBand, ClosestPointEqualsAScanOverAllTriangles) {
   EXPECT_GT(hits, 500u);
 }
 
+TEST(MeshSampling, ScanBunnySeamsAreSampledOnce) {
+  // The filled scan has vertices at equal positions on both sides of seams:
+  // each position must still give one sample (a doubled sample doubles SEED (11)).
+  const std::string path = std::string(CASCADE_SOURCE_DIR) + "/scenes/assets/bunny_res3.ply";
+  ASSERT_TRUE(std::filesystem::exists(path)) << path << " missing";
+  MeshObstacleOptions options;
+  options.targetTriangles = 900;
+  options.transform.scale = 1.28455f;
+  auto bunny = MeshBoundary::load(path, options);
+  const Real gap = 0.004f;
+  const std::vector<Vec3r> samples = sampleTrianglesSeed(bunny->mesh(), gap);
+  std::vector<Vec3r> merged = samples;
+  removeDuplicateSamples(merged, gap * 1e-3f);
+  EXPECT_EQ(merged.size(), samples.size());
+}
+
 TEST(MeshSampling, SevenPointsPerTriangleSharedOnce) {
   TriangleMesh mesh;
   mesh.vertices = {{0, 0, 0}, {0.01f, 0, 0}, {0, 0.01f, 0}, {0.01f, 0.01f, 0}};
