@@ -46,6 +46,20 @@ std::vector<Vec3r> randomPointsOnTriangles(const TriangleMesh& mesh, int count, 
   return points;
 }
 
+/// The bunny scene's mesh (the SEED's 3,851-triangle scan, holes filled,
+/// simplified to 900 triangles), 0.2 m wide; null if the asset is missing.
+std::unique_ptr<MeshBoundary> loadScanBunny() {
+  const std::string path = std::string(CASCADE_SOURCE_DIR) + "/scenes/assets/bunny_res3.ply";
+  if (!std::filesystem::exists(path)) {
+    ADD_FAILURE() << path << " missing";
+    return nullptr;
+  }
+  MeshObstacleOptions options;
+  options.targetTriangles = 900;
+  options.transform.scale = 1.28455f;
+  return MeshBoundary::load(path, options);
+}
+
 std::filesystem::path writeTemp(const std::string& name, const std::string& text) {
   const auto path = std::filesystem::temp_directory_path() / ("cascade_solver_test_" + name);
   writeTextAtomically(path, text);
@@ -206,12 +220,8 @@ TEST(BoundaryParticles, SampleListsEqualBruteForceOnWallsSlopeAndMesh) {
 TEST(TriangleBand, ClosestPointEqualsAScanOverAllTriangles) {
   // The scan bunny (900 triangles, 0.2 m): the band's answer within the range
   // must be the scan's (same triangle, lowest index on ties; none beyond range).
-  const std::string path = std::string(CASCADE_SOURCE_DIR) + "/scenes/assets/bunny_res3.ply";
-  ASSERT_TRUE(std::filesystem::exists(path)) << path << " missing";
-  MeshObstacleOptions options;
-  options.targetTriangles = 900;
-  options.transform.scale = 1.28455f;
-  auto bunny = MeshBoundary::load(path, options);
+  auto bunny = loadScanBunny();
+  ASSERT_TRUE(bunny);
   const TriangleMesh& mesh = bunny->mesh();
   std::vector<Vec3d> a, b, c;
   for (const auto& t : mesh.triangles) {
@@ -245,12 +255,8 @@ TEST(TriangleBand, ClosestPointEqualsAScanOverAllTriangles) {
 TEST(MeshSampling, ScanBunnySeamsAreSampledOnce) {
   // The filled scan has vertices at equal positions on both sides of seams:
   // each position must still give one sample (a doubled sample doubles SEED (11)).
-  const std::string path = std::string(CASCADE_SOURCE_DIR) + "/scenes/assets/bunny_res3.ply";
-  ASSERT_TRUE(std::filesystem::exists(path)) << path << " missing";
-  MeshObstacleOptions options;
-  options.targetTriangles = 900;
-  options.transform.scale = 1.28455f;
-  auto bunny = MeshBoundary::load(path, options);
+  auto bunny = loadScanBunny();
+  ASSERT_TRUE(bunny);
   const Real gap = 0.004f;
   const std::vector<Vec3r> samples = sampleTrianglesSeed(bunny->mesh(), gap);
   std::vector<Vec3r> merged = samples;
