@@ -146,6 +146,9 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
   const auto add = [&](const Vec3r& position, const Vec3r& velocity) { simulation.addParticle(position, velocity); };
   const auto emit = [&]() {
     for (std::size_t e = 0; e < scene.fluid.emitters.size(); ++e)
+      holdInflow(scene.fluid.emitters[e], scene.fluid.spacing, simulation.time(), state.emitters[e],
+                 simulation.particles());
+    for (std::size_t e = 0; e < scene.fluid.emitters.size(); ++e)
       emitUntil(scene.fluid.emitters[e], layers[e], scene.fluid.spacing, simulation.time(), state.emitters[e], add);
   };
   std::vector<char> leaving;

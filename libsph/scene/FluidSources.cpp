@@ -98,6 +98,41 @@ std::size_t emitUntil(const Emitter& emitter, const std::vector<Vec3r>& layer, d
   return added;
 }
 
+std::size_t holdInflow(const Emitter& emitter, double spacing, double time, const EmitterState& state,
+                       Particles& particles, double bufferLayers) {
+  if (time < emitter.start || time > emitter.end) return 0;
+  // After the last particle the nozzle is closed: the jet flows freely.
+  if (emitter.maxCount > 0 && state.emitted >= emitter.maxCount) return 0;
+  Vec3d e1, e2, n;
+  nozzleFrame(emitter, e1, e2, n);
+  const Vec3d center = toVec(emitter.center);
+  const Vec3r velocity = (emitter.speed * n).cast<Real>();
+  const bool rectangle = emitter.shape == "rectangle";
+  // The footprint of the layer lattice (emitterLayer), half a spacing wider.
+  double halfU = 0, halfV = 0, radius = 0;
+  if (rectangle) {
+    const int nu = std::max(1, int(std::floor(emitter.size[0] / spacing + 1e-6)));
+    const int nv = std::max(1, int(std::floor(emitter.size[1] / spacing + 1e-6)));
+    halfU = 0.5 * nu * spacing;
+    halfV = 0.5 * nv * spacing;
+  } else {
+    radius = std::max(emitter.radius, 0.5 * spacing) + 0.5 * spacing;
+  }
+  const double behind = -spacing, ahead = bufferLayers * spacing;
+  std::size_t held = 0;
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    const Vec3d offset = particles.position[i].cast<double>() - center;
+    const double d = offset.dot(n);
+    if (d < behind || d > ahead) continue;
+    const double u = offset.dot(e1), v = offset.dot(e2);
+    const bool inside = rectangle ? (std::abs(u) <= halfU && std::abs(v) <= halfV) : (u * u + v * v <= radius * radius);
+    if (!inside) continue;
+    particles.velocity[i] = velocity;
+    ++held;
+  }
+  return held;
+}
+
 std::size_t flagLeavingParticles(const Boundaries& boundaries, const Particles& particles,
                                  std::vector<char>& flags) {
   flags.assign(particles.size(), 0);

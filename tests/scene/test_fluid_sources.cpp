@@ -71,6 +71,48 @@ TEST(FluidSources, EmitterStopsAtEndAndMaxCount) {
   EXPECT_EQ(count, 20u);
 }
 
+TEST(FluidSources, InflowBufferHoldsTheNozzleVelocityOverTheNozzleOnly) {
+  // The production bunny's nozzle: a 0.3 x 0.08 m rectangle pointing 15 degrees down.
+  Emitter emitter;
+  emitter.shape = "rectangle";
+  emitter.center = {-1.287, 0.0, 0.303};
+  emitter.normal = {0.9659, 0.0, -0.2588};
+  emitter.up = {0.2588, 0.0, 0.9659};
+  emitter.size = {0.3, 0.08};
+  emitter.speed = 1.0;
+  emitter.end = 1.2;
+  const double spacing = 0.005;
+  const Vec3d n = Vec3d(0.9659, 0, -0.2588).normalized(), up = Vec3d(0.2588, 0, 0.9659).normalized();
+  const Vec3d c(-1.287, 0.0, 0.303);
+  Particles particles;
+  const auto at = [&](double along, double across, double height) {
+    const Vec3d x = c + along * n + across * Vec3d(0, 1, 0) + height * up;
+    particles.add(x.cast<Real>(), Vec3r(-3, 0.5, -1), ParticleId(particles.size()));  // pushed back by the jet
+  };
+  at(0.0, 0.0, 0.0);               // 0: on the nozzle plane
+  at(-0.6 * spacing, 0.14, 0.035); // 1: just behind the plane, near a corner of the nozzle
+  at(3.5 * spacing, -0.1, -0.02);  // 2: in the buffer, 3.5 layers out
+  at(4.5 * spacing, 0.0, 0.0);     // 3: past the buffer
+  at(-1.5 * spacing, 0.0, 0.0);    // 4: behind the nozzle (at the tank wall side)
+  at(0.01, 0.16, 0.0);             // 5: beside the nozzle
+  at(0.01, 0.0, 0.045);            // 6: above it
+  const Vec3r nozzleVelocity = n.cast<Real>();
+  EmitterState state;
+  EXPECT_EQ(holdInflow(emitter, spacing, 0.5, state, particles), 3u);
+  for (int i : {0, 1, 2}) EXPECT_LT((particles.velocity[i] - nozzleVelocity).norm(), 1e-6) << i;
+  for (int i : {3, 4, 5, 6}) EXPECT_EQ(particles.velocity[i], Vec3r(-3, 0.5, -1)) << i;
+  // Before the start, after the end and once the maximum count is out: nothing held.
+  for (Vec3r& v : particles.velocity) v = Vec3r(-3, 0.5, -1);
+  EXPECT_EQ(holdInflow(emitter, spacing, 1.3, state, particles), 0u);
+  emitter.start = 0.6;
+  EXPECT_EQ(holdInflow(emitter, spacing, 0.5, state, particles), 0u);
+  emitter.start = 0;
+  emitter.maxCount = 100;
+  state.emitted = 100;
+  EXPECT_EQ(holdInflow(emitter, spacing, 0.5, state, particles), 0u);
+  for (const Vec3r& v : particles.velocity) EXPECT_EQ(v, Vec3r(-3, 0.5, -1));
+}
+
 TEST(FluidSources, KillBoxesAndDomainFlagParticles) {
   Boundaries boundaries;
   boundaries.domain = Box{{-1, -1, -1}, {1, 1, 1}};
