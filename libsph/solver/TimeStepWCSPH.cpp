@@ -534,7 +534,8 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
         // in a step may stop and reflect the particle's approach to it (w, the
         // velocity from the other forces, along the push) but not throw it out
         // faster than it came or than contactSpeed: an elastic bounce at most.
-        // Contact with one solid keeps SEED (11) as it is.
+        // Contact with one solid keeps SEED (11) as it is unless the approach is
+        // faster than D = v_expected^2 can stop in time (fastApproach, blastApproach).
         if (timeStep > 0) {
           const Vec3r w = vi + timeStep * (c.acceleration[i] + total);
           for (int k = 0; k < solids; ++k) {

@@ -62,10 +62,11 @@ void computeFluidAcceleration(StepContext& context, const Workspace& workspace);
 /// Boundary layer: mirror pressure / viscosity and SEED (11) repulsion; fills
 /// context.obstacleForce (N, force on each boundary by the fluid). With
 /// timeStep > 0, a particle in the repulsion layers of two solids at once (a
-/// wedge) gets from each solid at most the SEED (11) push that stops and
-/// reflects its approach to that solid in one step (an elastic bounce, at
-/// least half the expected speed out): the stiff r^-13 layers of the two
-/// solids do not throw it out (wedge contact limiter, not in the SEED).
+/// wedge), or hitting one solid faster than the expected speed (up to a
+/// quarter of the instability speed), gets from each solid at most the SEED (11)
+/// push that stops and reflects its approach in one step (an elastic bounce, at
+/// least half the expected speed out): the stiff r^-13 layers do not throw it
+/// out (contact limiter, not in the SEED).
 void addBoundaryAcceleration(StepContext& context, const Workspace& workspace, Real timeStep = 0);
 /// SEED (12)-(14): v += a dt, x += v dt. Returns the largest |a|.
 Real integrateSymplecticEuler(StepContext& context, Real dt);
