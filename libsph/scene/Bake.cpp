@@ -178,6 +178,16 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
     writeObj(layout.root / "geometry" / "solids.obj", simulation.solidsMesh());
   }
 
+  {
+    // SEED 2.2: type I boundary particles per solid (the mesh loader logged its triangles).
+    simulation.nextTimeStep();  // started: boundaries sampled
+    const std::vector<std::size_t> counts =
+        simulation.boundaryParticles().samplesPerBoundary(simulation.boundaryCount());
+    std::string line = "bake: " + std::to_string(simulation.particles().size()) + " fluid particles; type I boundary particles:";
+    for (std::size_t b = 0; b < counts.size(); ++b)
+      line += (b ? ", " : " ") + simulation.boundary(b).name() + " " + std::to_string(counts[b]);
+    progress.message(line);
+  }
   const std::uint64_t stepsBefore = simulation.stepCount();
   const auto recordBake = [&](bool done, const std::string& error) {
     nlohmann::json record;
@@ -249,7 +259,7 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
   recordBake(result.complete, result.interrupted ? "interrupted" : "");
   char summary[256];
   std::snprintf(summary, sizeof summary,
-                "bake: %s frames %d-%d (%d written) t=%.3f s, %llu steps in %.1f s (%.2f simulated s per wall s), "
+                "bake: %s frames %d-%d (%d written) t=%.3f s, %llu steps in %.1f s (%.3g simulated s per wall s), "
                 "%zu particles, %llu removed",
                 result.interrupted ? "interrupted after" : "baked", first, result.lastFrame, result.framesWritten,
                 result.simulatedTime, static_cast<unsigned long long>(result.steps), result.wallSeconds,
