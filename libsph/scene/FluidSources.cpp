@@ -1,6 +1,10 @@
 #include "libsph/scene/FluidSources.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
 #include <cmath>
+#include <functional>
 
 namespace cascade::scene {
 
@@ -20,6 +24,9 @@ void nozzleFrame(const Emitter& emitter, Vec3d& e1, Vec3d& e2, Vec3d& n) {
   e2 = up.normalized();
   e1 = e2.cross(n).normalized();
 }
+
+/// Lattice points of `spacing` that fit in `extent` (at least one).
+int latticeCount(double extent, double spacing) { return std::max(1, int(std::floor(extent / spacing + 1e-6))); }
 } // namespace
 
 std::vector<Vec3r> blockPositions(const FluidBlock& block, double spacing) {
@@ -27,7 +34,7 @@ std::vector<Vec3r> blockPositions(const FluidBlock& block, double spacing) {
   double first[3];
   for (int k = 0; k < 3; ++k) {
     const double extent = block.box.max[k] - block.box.min[k];
-    count[k] = std::max(1, int(std::floor(extent / spacing + 1e-6)));
+    count[k] = latticeCount(extent, spacing);
     first[k] = block.box.min[k] + 0.5 * (extent - (count[k] - 1) * spacing);
   }
   std::vector<Vec3r> positions;
@@ -46,8 +53,8 @@ std::vector<Vec3r> emitterLayer(const Emitter& emitter, double spacing) {
   const Vec3d center = toVec(emitter.center);
   std::vector<Vec3r> layer;
   if (emitter.shape == "rectangle") {
-    const int nu = std::max(1, int(std::floor(emitter.size[0] / spacing + 1e-6)));
-    const int nv = std::max(1, int(std::floor(emitter.size[1] / spacing + 1e-6)));
+    const int nu = latticeCount(emitter.size[0], spacing);
+    const int nv = latticeCount(emitter.size[1], spacing);
     for (int j = 0; j < nv; ++j)
       for (int i = 0; i < nu; ++i) {
         const Vec3d p = center + ((i - 0.5 * (nu - 1)) * spacing) * e1 + ((j - 0.5 * (nv - 1)) * spacing) * e2;
@@ -111,26 +118,32 @@ std::size_t holdInflow(const Emitter& emitter, double spacing, double time, cons
   // The footprint of the layer lattice (emitterLayer), half a spacing wider.
   double halfU = 0, halfV = 0, radius = 0;
   if (rectangle) {
-    const int nu = std::max(1, int(std::floor(emitter.size[0] / spacing + 1e-6)));
-    const int nv = std::max(1, int(std::floor(emitter.size[1] / spacing + 1e-6)));
+    const int nu = latticeCount(emitter.size[0], spacing);
+    const int nv = latticeCount(emitter.size[1], spacing);
     halfU = 0.5 * nu * spacing;
     halfV = 0.5 * nv * spacing;
   } else {
     radius = std::max(emitter.radius, 0.5 * spacing) + 0.5 * spacing;
   }
   const double behind = -spacing, ahead = bufferLayers * spacing;
-  std::size_t held = 0;
-  for (std::size_t i = 0; i < particles.size(); ++i) {
-    const Vec3d offset = particles.position[i].cast<double>() - center;
-    const double d = offset.dot(n);
-    if (d < behind || d > ahead) continue;
-    const double u = offset.dot(e1), v = offset.dot(e2);
-    const bool inside = rectangle ? (std::abs(u) <= halfU && std::abs(v) <= halfV) : (u * u + v * v <= radius * radius);
-    if (!inside) continue;
-    particles.velocity[i] = velocity;
-    ++held;
-  }
-  return held;
+  // Every step, over all particles: in parallel.
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, particles.size(), 8192), std::size_t(0),
+      [&](const tbb::blocked_range<std::size_t>& range, std::size_t held) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+          const Vec3d offset = particles.position[i].cast<double>() - center;
+          const double d = offset.dot(n);
+          if (d < behind || d > ahead) continue;
+          const double u = offset.dot(e1), v = offset.dot(e2);
+          const bool inside =
+              rectangle ? (std::abs(u) <= halfU && std::abs(v) <= halfV) : (u * u + v * v <= radius * radius);
+          if (!inside) continue;
+          particles.velocity[i] = velocity;
+          ++held;
+        }
+        return held;
+      },
+      std::plus<std::size_t>());
 }
 
 std::size_t flagLeavingParticles(const Boundaries& boundaries, const Particles& particles,
