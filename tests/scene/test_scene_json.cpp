@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <filesystem>
 
 using namespace cascade;
@@ -16,8 +18,13 @@ namespace fs = std::filesystem;
 namespace {
 const fs::path kScenes = fs::path(CASCADE_SOURCE_DIR) / "scenes";
 
+/// Per process: ctest runs the tests of this file in parallel processes.
+fs::path tempPath(const std::string& name) {
+  return fs::temp_directory_path() / ("cascade_scene_" + name + "_" + std::to_string(::getpid()));
+}
+
 fs::path tempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("cascade_scene_" + name);
+  const fs::path dir = tempPath(name);
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
@@ -145,7 +152,7 @@ TEST(SceneJson, SetErrors) {
 TEST(SceneJson, MissingAssetNamesThePath) {
   const std::string message = loadError(R"({"name": "t", "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]},
       "boundaries": {"obstacles": [{"name": "rock", "mesh": "assets/rock.obj"}]}})");
-  const fs::path lookedFor = (fs::temp_directory_path() / "cascade_scene_error" / "assets" / "rock.obj").lexically_normal();
+  const fs::path lookedFor = (tempPath("error") / "assets" / "rock.obj").lexically_normal();
   EXPECT_EQ(message, "scene.json: boundaries.obstacles[0].mesh: mesh file not found: " + lookedFor.string());
 }
 
