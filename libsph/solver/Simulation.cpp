@@ -3,6 +3,7 @@
 #include "libsph/Errors.h"
 #include "libsph/Kernels.h"
 #include "libsph/io/AtomicFile.h"
+#include "libsph/search/MortonCode.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -58,16 +59,6 @@ double latticeGradientSum(Real spacing, Real supportRadius, double volume) {
         sum += double(r.dot(spiky.gradient(r)));
       }
   return -volume * sum / 3.0;  // (x_j - x_i) . grad W = -r . grad W
-}
-
-std::uint64_t spreadBits(std::uint64_t v) {
-  v &= 0x1fffff;
-  v = (v | (v << 32)) & 0x1f00000000ffffULL;
-  v = (v | (v << 16)) & 0x1f0000ff0000ffULL;
-  v = (v | (v << 8)) & 0x100f00f00f00f00fULL;
-  v = (v | (v << 4)) & 0x10c30c30c30c30c3ULL;
-  v = (v | (v << 2)) & 0x1249249249249249ULL;
-  return v;
 }
 
 /// Type I samples with the gap and list radius the strategy needs (TimeStepNeeds),
@@ -342,7 +333,9 @@ void Simulation::reorder() {
       const double f = (double(p[a]) - double(lo[a])) * inv;
       c[a] = (f >= 0 && f < 2097151.0) ? std::uint64_t(f) : 2097151ULL;
     }
-    keys[i] = {spreadBits(c[0]) | (spreadBits(c[1]) << 1) | (spreadBits(c[2]) << 2), std::uint32_t(i)};
+    keys[i] = {search::mortonSpreadBits(std::uint32_t(c[0])) | (search::mortonSpreadBits(std::uint32_t(c[1])) << 1) |
+                   (search::mortonSpreadBits(std::uint32_t(c[2])) << 2),
+               std::uint32_t(i)};
   });
   tbb::parallel_sort(keys.begin(), keys.end());
   std::vector<std::size_t> order(n);
