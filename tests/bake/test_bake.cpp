@@ -2,6 +2,7 @@
 // frame (or stopped with SIGINT) and started again with the same command
 // ends with the same particles as one never stopped; run skips an unchanged
 // bake; an unstable bake exits 3; bad scenes exit 2 and damage nothing.
+#include "TestTempDir.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/OutputLayout.h"
 #include "libsph/io/ParticleCache.h"
@@ -27,8 +28,11 @@ namespace {
 const std::string kCascade = std::string(CASCADE_BINARY_DIR) + "/cascade";
 const std::string kScenes = std::string(CASCADE_SOURCE_DIR) + "/scenes";
 
+/// An output folder that does not exist yet, inside this process's scratch folder
+/// (removed at exit; logs are written next to the output folders).
 fs::path freshDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("cascade_bake_" + name + "_" + std::to_string(::getpid()));
+  static const fs::path base = cascade::test::freshTempDir("bake");
+  const fs::path dir = base / name;
   fs::remove_all(dir);
   return dir;
 }

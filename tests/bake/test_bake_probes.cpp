@@ -1,6 +1,7 @@
 // Probes and caches of a bake (issue 4): the pressure probe of a tank at rest
 // against rho g d; the probes.csv layout; cache round trip of bake-like data
 // within the codecs' stated precision (ParticleCache.h).
+#include "TestTempDir.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/ParticleCache.h"
 #include "libsph/scene/Bake.h"
@@ -46,7 +47,7 @@ double meanAfter(const std::map<std::string, std::vector<double>>& csv, const st
 } // namespace
 
 TEST(BakeProbes, HydrostaticPressureFollowsRhoGD) {
-  const fs::path out = fs::temp_directory_path() / ("cascade_probe_hydrostatic_" + std::to_string(::getpid()));
+  const fs::path out = cascade::test::freshTempDir("probe_hydrostatic") / "out";
   fs::remove_all(out);
   const scene::Scene scene = scene::loadScene(fs::path(CASCADE_SOURCE_DIR) / "scenes" / "hydrostatic.json",
                                               {"size=seed", "output.end_time=1.5", "output.fps=2"});
@@ -92,7 +93,7 @@ TEST(BakeProbes, CacheRoundTripWithinCodecPrecision) {
     frame.density.push_back(990 + 20 * unit(random));
     frame.pressure.push_back(5000 * unit(random));
   }
-  const fs::path file = fs::temp_directory_path() / ("cascade_cache_" + std::to_string(::getpid()) + ".vdb");
+  const fs::path file = cascade::test::freshTempDir("probe_cache") / "particles.vdb";
   writeParticleFrame(file, frame);
   const ParticleFrame read = readParticleFrame(file);
   ASSERT_EQ(read.size(), frame.size());

@@ -1,3 +1,4 @@
+#include "TestTempDir.h"
 #include "libsph/Errors.h"
 #include "libsph/io/TriangleMesh.h"
 
@@ -19,7 +20,7 @@ TriangleMesh tetrahedron() {
 } // namespace
 
 TEST(Obj, RoundTripKeepsVerticesNormalsTrianglesAndGroups) {
-  const fs::path path = fs::temp_directory_path() / "cascade_obj_roundtrip.obj";
+  const fs::path path = cascade::test::freshTempDir("obj") / "obj_roundtrip.obj";
   TriangleMesh mesh = tetrahedron();
   TriangleMesh second = tetrahedron();
   for (auto& v : second.vertices) v += Eigen::Vector3f(2.5f, -1.0f / 3.0f, 1e-7f);
@@ -46,7 +47,7 @@ TEST(Obj, NormalsPointOutwardOnAClosedMesh) {
 }
 
 TEST(Obj, ReadsQuadsNegativeIndicesAndTextureForms) {
-  const fs::path path = fs::temp_directory_path() / "cascade_obj_forms.obj";
+  const fs::path path = cascade::test::freshTempDir("obj") / "obj_forms.obj";
   std::ofstream(path) << "# comment\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n"
                          "f 1/1/1 2/1/1 3/1/1 4/1/1\nf -4 -3 -2\n";
   const TriangleMesh mesh = readObj(path);
@@ -59,22 +60,22 @@ TEST(Obj, ReadsQuadsNegativeIndicesAndTextureForms) {
 }
 
 TEST(Obj, MalformedFilesNameFileAndLine) {
-  const fs::path path = fs::temp_directory_path() / "cascade_obj_bad.obj";
+  const fs::path path = cascade::test::freshTempDir("obj") / "obj_bad.obj";
   std::ofstream(path) << "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 7\n";
   try {
     readObj(path);
     ADD_FAILURE() << "bad index accepted";
   } catch (const InputError& error) {
-    EXPECT_NE(std::string(error.what()).find("cascade_obj_bad.obj:4:"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("/obj_bad.obj:4:"), std::string::npos) << error.what();
   }
   std::ofstream(path) << "v 0 zero 0\n";
   EXPECT_THROW(readObj(path), InputError);
-  EXPECT_THROW(readObj(fs::temp_directory_path() / "cascade_no_such_mesh.obj"), InputError);
+  EXPECT_THROW(readObj(cascade::test::freshTempDir("obj") / "no_such_mesh.obj"), InputError);
   fs::remove(path);
 }
 
 TEST(Obj, EmptyMeshRoundTrips) {
-  const fs::path path = fs::temp_directory_path() / "cascade_obj_empty.obj";
+  const fs::path path = cascade::test::freshTempDir("obj") / "obj_empty.obj";
   writeObj(path, TriangleMesh{});
   EXPECT_TRUE(readObj(path).empty());
   fs::remove(path);

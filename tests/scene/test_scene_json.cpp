@@ -1,5 +1,6 @@
 // Scene format (issue 4): parse -> write -> parse identity, defaults, presets,
 // --set overrides and every kind of validation error.
+#include "TestTempDir.h"
 #include "libsph/Errors.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/scene/SceneJson.h"
@@ -20,7 +21,8 @@ const fs::path kScenes = fs::path(CASCADE_SOURCE_DIR) / "scenes";
 
 /// Per process: ctest runs the tests of this file in parallel processes.
 fs::path tempPath(const std::string& name) {
-  return fs::temp_directory_path() / ("cascade_scene_" + name + "_" + std::to_string(::getpid()));
+  static const fs::path base = cascade::test::freshTempDir("scene");
+  return base / name;
 }
 
 fs::path tempDir(const std::string& name) {
