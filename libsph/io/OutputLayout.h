@@ -44,6 +44,13 @@ struct FrameRange {
 /// Parses "A-B" or "A" (1-based, A <= B); throws InputError("--frames: ...").
 FrameRange parseFrameRange(const std::string& text);
 
+/// True if `name` is PREFIX.<anything>.EXTENSION (at least one character between).
+bool matchesPrefixAndExtension(const std::string& name, const std::string& prefix, const std::string& extension);
+
+/// The frame number of a file named PREFIX.NNNN.EXTENSION (four or more digits), else none.
+std::optional<int> frameOfFileName(const std::string& name, const std::string& prefix,
+                                   const std::string& extension);
+
 /// Frame numbers of the files in `dir` named PREFIX.NNNN.EXT, sorted.
 std::vector<int> listFrames(const std::filesystem::path& dir, const std::string& prefix,
                             const std::string& extension);

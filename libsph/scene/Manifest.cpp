@@ -1,12 +1,12 @@
 #include "libsph/scene/Manifest.h"
 
 #include "libsph/io/AtomicFile.h"
+#include "libsph/io/OutputLayout.h"
 #include "libsph/scene/SceneJson.h"
 
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
-#include <regex>
 #include <vector>
 
 namespace cascade::scene {
@@ -47,10 +47,9 @@ std::string directoryHash(const fs::path& dir, const std::string& prefix, const 
   std::vector<std::string> entries;
   std::error_code error;
   if (fs::is_directory(dir, error)) {
-    const std::regex pattern("^" + prefix + R"(\..*\.)" + extension + "$");
     for (const auto& entry : fs::directory_iterator(dir, error)) {
       const std::string name = entry.path().filename().string();
-      if (!std::regex_match(name, pattern)) continue;
+      if (!matchesPrefixAndExtension(name, prefix, extension)) continue;
       const auto size = fs::file_size(entry.path(), error);
       const auto time = fs::last_write_time(entry.path(), error).time_since_epoch().count();
       entries.push_back(name + ":" + std::to_string(size) + ":" + std::to_string(time));

@@ -40,3 +40,13 @@ TEST(OutputLayout, ListsOnlyMatchingFrames) {
   EXPECT_EQ(listFrames(dir, "fluid", "obj"), (std::vector<int>{1, 3}));
   std::filesystem::remove_all(dir);
 }
+
+TEST(OutputLayout, FrameOfFileNameNeedsPrefixFourDigitsAndExtension) {
+  EXPECT_EQ(frameOfFileName("fluid.0007.obj", "fluid", "obj"), std::optional<int>(7));
+  EXPECT_EQ(frameOfFileName("fluid.12345.obj", "fluid", "obj"), std::optional<int>(12345));
+  for (const char* bad : {"fluid.007.obj", "fluid.00a7.obj", "fluid.0007.objx", "fluidx0007.obj", "fluid.0007xobj",
+                          "fluid..obj", "fluid.obj", "xfluid.0007.obj", "fluid.99999999999.obj"})
+    EXPECT_EQ(frameOfFileName(bad, "fluid", "obj"), std::nullopt) << bad;
+  EXPECT_TRUE(matchesPrefixAndExtension("particles.0001.ply", "particles", "ply"));
+  EXPECT_FALSE(matchesPrefixAndExtension("particles.ply", "particles", "ply"));
+}
