@@ -3,6 +3,7 @@
 #include "surfacing/LevelSetMethods.h"
 #include "surfacing/detail/BlockRasterizer.h"
 #include "surfacing/detail/ImplicitToLevelSet.h"
+#include "surfacing/detail/Profile.h"
 
 namespace cascade::surfacing {
 
@@ -19,8 +20,11 @@ openvdb::FloatGrid::Ptr anisotropicLevelSet(const std::vector<Vec3r>& positions,
   kernelSettings.spacing = s;
   if (settings.radius > 0) kernelSettings.supportRadius *= settings.radius / (0.5 * s);
   const double cellSize = std::max(kernelSettings.neighborRadius, kernelSettings.supportRadius) * s;
+  detail::ProfileClock profile;
   const ParticleGrid grid(positions, cellSize);
+  profile.lap("anisotropic: grid");
   const AnisotropicKernels kernels = computeAnisotropicKernels(grid, kernelSettings);
+  profile.lap("anisotropic: kernels");
   static const std::vector<std::uint8_t> none;
 
   openvdb::FloatTree field(0.0f);
@@ -61,7 +65,10 @@ openvdb::FloatGrid::Ptr anisotropicLevelSet(const std::vector<Vec3r>& positions,
     }
     return true;
   });
-  return detail::implicitToLevelSet(field, float(kAnisotropicIso), true, dx, settings.halfWidth);
+  profile.lap("anisotropic: rasterize blocks");
+  auto levelSet = detail::implicitToLevelSet(field, float(kAnisotropicIso), true, dx, settings.halfWidth);
+  profile.lap("anisotropic: to level set");
+  return levelSet;
 }
 
 } // namespace cascade::surfacing

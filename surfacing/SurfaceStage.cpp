@@ -8,6 +8,7 @@
 #include "surfacing/LevelSetMethods.h"
 #include "surfacing/MeshCleanup.h"
 #include "surfacing/ParticleGrid.h"
+#include "surfacing/detail/Profile.h"
 
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
@@ -187,8 +188,11 @@ SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spaci
   surfacing::cleanupMesh(result.mesh, cleanup);
   stageDone(result.timings.cleanup, result.timings.cpu.cleanup);
 
+  surfacing::detail::ProfileClock profile;
   if (!objPath.empty()) writeSurfaceObj(objPath, result.mesh, options.objYUp);
+  profile.lap("write: obj");
   if (vdbWriter.joinable()) vdbWriter.join();
+  profile.lap("write: wait for vdb");
   stageDone(result.timings.write, result.timings.cpu.write);
   if (vdbFailure) std::rethrow_exception(vdbFailure);
   return result;

@@ -12,6 +12,7 @@
 #pragma once
 
 #include "surfacing/ParticleGrid.h"
+#include "surfacing/detail/Profile.h"
 
 #include <openvdb/openvdb.h>
 #include <tbb/parallel_for.h>
@@ -45,7 +46,9 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
   const std::size_t n = center.size();
   if (n == 0) return;
   const double blockSize = LeafT::DIM * voxelSize;
+  ProfileClock profile;
   const ParticleGrid bins(center, blockSize);
+  profile.lap("blocks: bins");
 
   // Leaves touched by the supports of non-interior kernels, per bin (union of boxes).
   std::vector<std::vector<openvdb::Coord>> perBin(bins.cellCount());
@@ -78,11 +81,29 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
   tbb::parallel_sort(origins.begin(), origins.end());
   origins.erase(std::unique(origins.begin(), origins.end()), origins.end());
 
+  profile.lap("blocks: leaf origins");
   // (leaf, kernel) pairs: every kernel lists the leaves its support box overlaps;
   // sorted, they give each leaf its candidates in kernel order (deterministic).
+  // Leaf origin -> index: open addressing, load factor <= 1/2 (a binary search
+  // per kernel and leaf cost more than the rest of the pairing).
+  auto packLeaf = [](const openvdb::Coord& origin) {
+    return (std::uint64_t(std::uint32_t(origin.x()) >> 3) << 42) ^
+           (std::uint64_t(std::uint32_t(origin.y()) >> 3) << 21) ^ std::uint64_t(std::uint32_t(origin.z()) >> 3);
+  };
+  std::size_t tableSize = 16;
+  while (tableSize < 2 * origins.size()) tableSize *= 2;
+  const std::uint64_t tableMask = tableSize - 1;
+  std::vector<std::int64_t> table(tableSize, -1);
+  for (std::size_t b = 0; b < origins.size(); ++b) {
+    std::uint64_t slot = ((packLeaf(origins[b]) * 0x9E3779B97F4A7C15ull) >> 20) & tableMask;
+    while (table[slot] >= 0) slot = (slot + 1) & tableMask;
+    table[slot] = std::int64_t(b);
+  }
   auto leafIndex = [&](const openvdb::Coord& origin) -> std::int64_t {
-    const auto it = std::lower_bound(origins.begin(), origins.end(), origin);
-    return it != origins.end() && *it == origin ? std::int64_t(it - origins.begin()) : -1;
+    std::uint64_t slot = ((packLeaf(origin) * 0x9E3779B97F4A7C15ull) >> 20) & tableMask;
+    for (std::int64_t b; (b = table[slot]) >= 0; slot = (slot + 1) & tableMask)
+      if (origins[std::size_t(b)] == origin) return b;
+    return -1;
   };
   const std::size_t chunk = 16384, chunks = (n + chunk - 1) / chunk;
   std::vector<std::vector<std::uint64_t>> chunkPairs(chunks);
@@ -119,6 +140,7 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
   for (std::size_t b = origins.size(); b-- > 0;)  // leaves without pairs: empty ranges
     if (leafStart[b] > leafStart[b + 1]) leafStart[b] = leafStart[b + 1];
 
+  profile.lap("blocks: pairs");
   std::vector<LeafT*> leaves(origins.size(), nullptr);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, origins.size(), 8), [&](const auto& range) {
     std::vector<std::uint32_t> candidates;
@@ -134,8 +156,10 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
       leaves[b] = leaf;
     }
   });
+  profile.lap("blocks: accumulate");
   for (LeafT* leaf : leaves)
     if (leaf) tree.addLeaf(leaf);
+  profile.lap("blocks: add leaves");
 }
 
 } // namespace cascade::surfacing::detail

@@ -1,4 +1,5 @@
 #include "surfacing/detail/ImplicitToLevelSet.h"
+#include "surfacing/detail/Profile.h"
 
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tools/SignedFloodFill.h>
@@ -82,8 +83,11 @@ openvdb::FloatGrid::Ptr implicitToLevelSet(const openvdb::FloatTree& field, floa
           else leaf.setValueOff(offset, distance > 0 ? background : -background);
         }
   });
+  ProfileClock profile;
   openvdb::tools::pruneLevelSet(*tree);
+  profile.lap("to level set: prune");
   openvdb::tools::signedFloodFill(*tree);
+  profile.lap("to level set: flood fill");
   auto grid = openvdb::FloatGrid::create(tree);
   grid->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
   grid->setGridClass(openvdb::GRID_LEVEL_SET);
