@@ -20,6 +20,7 @@ MirrorMap MirrorMap::after(const MirrorMap& first) const {
   map.linear = linear * first.linear;
   map.offset = linear * first.offset + offset;
   map.boundary = boundary;
+  map.symmetry = symmetry && first.symmetry;
   return map;
 }
 

@@ -30,6 +30,11 @@ struct MirrorMap {
   Eigen::Matrix<Real, 3, 3> linear = Eigen::Matrix<Real, 3, 3>::Identity();
   Vec3r offset = Vec3r::Zero();
   std::uint32_t boundary = 0;   ///< index of the boundary in its Simulation (force attribution)
+  /// A symmetry plane, not a wall (the side faces of a slab that stands for a
+  /// 2-D flow): its images always mirror the velocity (free slip) and it exerts
+  /// no wall shear, whatever BoundarySettings::slip says. A product of maps is a
+  /// symmetry only if all its factors are.
+  bool symmetry = false;
 
   Vec3r apply(const Vec3r& x) const { return linear * x + offset; }
   /// Reflection across the plane through `point` with unit `normal`.

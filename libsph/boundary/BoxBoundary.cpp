@@ -6,12 +6,13 @@
 
 namespace cascade {
 
-BoundaryPtr BoxBoundary::tank(const Vec3r& lo, const Vec3r& hi, bool closedTop) {
+BoundaryPtr BoxBoundary::tank(const Vec3r& lo, const Vec3r& hi, bool closedTop, unsigned symmetryAxes) {
   std::unique_ptr<BoxBoundary> box(new BoxBoundary());
   box->mCenter = Real(0.5) * (lo + hi);
   box->mHalf = Real(0.5) * (hi - lo);
   box->mTank = true;
   box->mClosedTop = closedTop;
+  box->mSymmetryAxes = symmetryAxes & 7u;
   return box;
 }
 
@@ -69,7 +70,8 @@ void BoxBoundary::mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryI
         const Real distance = mHalf[axis] - sign * q[axis];  // > 0 inside
         if (distance < 0 || distance >= range) continue;
         const Vec3r normal = mRotation.col(axis) * sign;  // outward; reflection is sign-free
-        const MirrorMap map = MirrorMap::reflection(mCenter + normal * mHalf[axis], normal, boundaryIndex);
+        MirrorMap map = MirrorMap::reflection(mCenter + normal * mHalf[axis], normal, boundaryIndex);
+        map.symmetry = (mSymmetryAxes >> axis) & 1u;
         maps.push_back(map);
         if (!haveAxis[axis]) { near[axis] = map; haveAxis[axis] = true; }
       }

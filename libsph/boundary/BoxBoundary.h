@@ -15,8 +15,10 @@ namespace cascade {
 class BoxBoundary final : public Boundary {
 public:
   /// A tank: fluid inside the axis-aligned box [lo, hi]; the top face
-  /// (z = hi.z) is a wall only if closedTop.
-  static BoundaryPtr tank(const Vec3r& lo, const Vec3r& hi, bool closedTop = false);
+  /// (z = hi.z) is a wall only if closedTop. The faces normal to the axes in
+  /// the bit mask symmetryAxes (1 = x, 2 = y, 4 = z) are symmetry planes
+  /// (MirrorMap::symmetry: a slab standing for a 2-D flow), not walls.
+  static BoundaryPtr tank(const Vec3r& lo, const Vec3r& hi, bool closedTop = false, unsigned symmetryAxes = 0);
 
   /// A solid block: fluid outside; centred at `center`, `halfExtents` along
   /// the columns of `rotation` (an orthonormal matrix).
@@ -45,6 +47,7 @@ private:
   Vec3r mCenter = Vec3r::Zero(), mHalf = Vec3r::Ones();
   Eigen::Matrix<Real, 3, 3> mRotation = Eigen::Matrix<Real, 3, 3>::Identity();
   bool mTank = false, mClosedTop = false;
+  unsigned mSymmetryAxes = 0;  // tank faces that are symmetry planes (bit per axis)
 };
 
 } // namespace cascade

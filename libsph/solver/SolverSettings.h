@@ -99,6 +99,11 @@ struct SolverSettings {
 enum class MirrorSlip {
   FreeSlip,  ///< normal component reversed, tangential kept
   NoSlip,    ///< whole velocity reversed
+  /// Free-slip mirrors plus the wall shear stress of a laminar boundary layer
+  /// thinner than a particle, tau_w = mu u / sqrt(pi nu t) (Stokes' first
+  /// problem; libsph/boundary/WallShearStress.h), from the fluid's viscosity
+  /// (FluidSettings::viscosity; 0: none). DFSPH; WCSPH treats it as free slip.
+  LaminarWallShear,
 };
 
 /// The two kinds of virtual boundary particles (SEED section 2.2).

@@ -3,6 +3,7 @@
 #include "libsph/Errors.h"
 #include "libsph/Kernels.h"
 #include "libsph/boundary/BoundaryParticles.h"
+#include "libsph/boundary/WallShearStress.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -102,10 +103,11 @@ TimeStepNeeds TimeStepDFSPH::needs(const SimulationSettings&, const DerivedConst
 void TimeStepDFSPH::resize(std::size_t count) {
   mDensityKappa.resize(count, Real(0));
   mDivergenceKappa.resize(count, Real(0));
+  mWallAge.resize(count, Real(0));
 }
 
 void TimeStepDFSPH::permute(const std::vector<std::size_t>& order) {
-  for (std::vector<Real>* values : {&mDensityKappa, &mDivergenceKappa}) {
+  for (std::vector<Real>* values : {&mDensityKappa, &mDivergenceKappa, &mWallAge}) {
     if (values->size() != order.size()) continue;
     std::vector<Real> permuted(order.size());
     for (std::size_t k = 0; k < order.size(); ++k) permuted[k] = (*values)[order[k]];
@@ -116,12 +118,14 @@ void TimeStepDFSPH::permute(const std::vector<std::size_t>& order) {
 void TimeStepDFSPH::removeIf(const std::vector<char>& remove) {
   keepIf(mDensityKappa, remove);
   keepIf(mDivergenceKappa, remove);
+  keepIf(mWallAge, remove);
 }
 
 void TimeStepDFSPH::save(std::ostream& out) const {
   writeVector(out, mDensityKappa);
   writeVector(out, mDivergenceKappa);
   out.write(reinterpret_cast<const char*>(&mRegularStep), sizeof(mRegularStep));
+  writeVector(out, mWallAge);
 }
 
 void TimeStepDFSPH::restore(std::istream& in) {
@@ -129,6 +133,13 @@ void TimeStepDFSPH::restore(std::istream& in) {
   readVector(in, mDivergenceKappa);
   in.read(reinterpret_cast<char*>(&mRegularStep), sizeof(mRegularStep));
   if (!in) throw InputError("checkpoint: truncated DFSPH state");
+  // Boundary-layer ages (wall shear); a checkpoint written before they existed ends here.
+  if (in.peek() == std::char_traits<char>::eof()) {
+    in.clear();
+    std::fill(mWallAge.begin(), mWallAge.end(), Real(0));
+  } else {
+    readVector(in, mWallAge);
+  }
 }
 
 /// Step 1: densities, kernel gradients (kept per pair for the solves), factors;
@@ -209,7 +220,8 @@ void TimeStepDFSPH::prepare(StepContext& c) {
         const Vec3r gradient = volume * kernel.gradient(r);
         mGhostGradient[g] = gradient;
         // The image's velocity is L v_j (L = -I for no slip): (L v_j) . G = v_j . (L^T G).
-        mGhostVelocityGradient[g] = noSlip ? Vec3r(-gradient) : Vec3r(maps[m].linear.transpose() * gradient);
+        mGhostVelocityGradient[g] =
+            noSlip && !maps[m].symmetry ? Vec3r(-gradient) : Vec3r(maps[m].linear.transpose() * gradient);
         mGhostValue[g] = volume * kernel.value(r.norm());
         mGhostOffset[g] = r;
         ++g;
@@ -307,14 +319,16 @@ void TimeStepDFSPH::prepare(StepContext& c) {
         // Mirror particles in the viscous terms with the image's velocity (L v_j; -v_j for no
         // slip): a no-slip wall exerts friction and any wall damps approaching motion.
         const Vec3r& x = mGhostOffset[g];
-        const Vec3r image = noSlip ? Vec3r(-velocity[j]) : Vec3r(maps[mGhostMap[g]].linear * velocity[j]);
+        const MirrorMap& map = maps[mGhostMap[g]];
+        const Vec3r image = noSlip && !map.symmetry ? Vec3r(-velocity[j]) : Vec3r(map.linear * velocity[j]);
         const Real vx = (vi - image).dot(x);
         viscous += (viscousFactor(vx) * vx / (x.squaredNorm() + epsilon2)) * G;
       }
       denominator = gradientSum.dot(change) + gradientSquares;
       for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g)
         if (mGhostSource[g] == i) {
-          const Vec3r mirroredChange = noSlip ? Vec3r(-change) : Vec3r(maps[mGhostMap[g]].linear * change);
+          const MirrorMap& map = maps[mGhostMap[g]];
+          const Vec3r mirroredChange = noSlip && !map.symmetry ? Vec3r(-change) : Vec3r(map.linear * change);
           denominator -= mirroredChange.dot(mGhostGradient[g]);
         }
       count += mGhostOffsets[l + 1] - mGhostOffsets[l];
@@ -327,6 +341,40 @@ void TimeStepDFSPH::prepare(StepContext& c) {
     mDensityRatio[i] = density;
     mNeighborCount[i] = count;
     particles.density[i] = restDensity * density;
+  });
+}
+
+/// Wall shear of the unresolved laminar boundary layer (WallShearStress.h): the slip
+/// velocity of each particle within one spacing of a wall (single reflections that
+/// are not symmetry planes; walls at rest) decays by laminarWallShearDecay over the
+/// step, with the age of its boundary layer = the time it has been that close
+/// (0 when it arrives; the fluid at rest on the floor starts its layer at release).
+void TimeStepDFSPH::applyWallShear(StepContext& c, Real dt) {
+  const std::size_t n = c.particles.size();
+  const Real nu = c.settings.fluid.viscosity / c.settings.fluid.restDensity;
+  const Real spacing = c.settings.fluid.spacing;
+  const std::vector<MirrorMap>& maps = c.boundary.mirrors();
+  const std::vector<std::uint32_t>& mapOffsets = c.boundary.mirrorOffsets();
+  const bool mirrors = mapOffsets.size() == n + 1 && !maps.empty();
+  std::vector<Vec3r>& velocity = c.particles.velocity;
+  forEachParticle(n, [&](std::size_t i) {
+    bool touching = false;
+    if (mirrors && mLayerIndex[i] != kNotInLayer) {
+      const Vec3r xi = c.particles.position[i];
+      const Real decay = laminarWallShearDecay(nu, spacing, double(mWallAge[i]), double(dt));
+      for (std::uint32_t m = mapOffsets[i]; m < mapOffsets[i + 1]; ++m) {
+        const MirrorMap& map = maps[m];
+        if (map.symmetry || std::abs(map.linear.trace() - Real(1)) > Real(1e-3)) continue;
+        const Vec3r toImage = xi - map.apply(xi);  // 2 d n
+        const Real twice = toImage.norm();
+        if (!(twice > Real(0)) || Real(0.5) * twice >= spacing) continue;
+        const Vec3r normal = toImage / twice;
+        const Real normalSpeed = velocity[i].dot(normal);
+        velocity[i] = normalSpeed * normal + decay * (velocity[i] - normalSpeed * normal);
+        touching = true;
+      }
+    }
+    mWallAge[i] = touching ? mWallAge[i] + dt : Real(0);
   });
 }
 
@@ -462,6 +510,7 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
         [](double a, double b) { return std::max(a, b); });
     c.maxAcceleration = static_cast<Real>(std::sqrt(maxA));
   }
+  if (c.settings.boundary.slip == MirrorSlip::LaminarWallShear) applyWallShear(c, dt);
   c.timings.integrate += millisecondsSince(start);
 
   // --- 4. constant-density solve (B&K 2017 alg. 3) ---

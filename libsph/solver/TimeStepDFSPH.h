@@ -52,6 +52,12 @@
 /// wall: its velocity towards a wall it mirrors across is limited so that it
 /// stays a quarter spacing off.
 ///
+/// Wall friction: with BoundarySettings::slip = LaminarWallShear the mirrors are free
+/// slip and, after step 3, the wall-adjacent layer feels the wall shear stress of an
+/// unresolved laminar boundary layer (Stokes' first problem, WallShearStress.h), with
+/// the boundary layer's age kept per particle. Symmetry planes (MirrorMap::symmetry)
+/// are always free slip.
+///
 /// Time step (TimeStepNeeds): CFL on the velocity only, dt = cfl h / v_max (no
 /// speed of sound), and dt <= 0.06 sqrt(h / a_max) with a_max the largest
 /// non-pressure acceleration. A step the Simulation shortened to land on a frame or
@@ -92,12 +98,14 @@ public:
 
 private:
   void prepare(StepContext& context);
+  void applyWallShear(StepContext& context, Real dt);
   void applyStep(std::vector<Vec3r>& velocity, std::vector<Real>& kappa, Real dt);
   Real densityRate(const std::vector<Vec3r>& velocity, std::size_t i) const;
 
   // State (follows the particles, saved in checkpoints): warm starts, m^2/s^2.
   std::vector<Real> mDensityKappa, mDivergenceKappa;
   double mRegularStep = 0;  // s, the last step not shortened to land on a frame or probe time
+  std::vector<Real> mWallAge;  // s each particle has been within one spacing of a wall (wall shear)
 
   // Per-step scratch.
   std::vector<Real> mFactor, mKappaStep, mDensityRatio, mRate, mGravityRate;

@@ -1,8 +1,10 @@
 // DFSPH (Bender & Koschier 2017) with mirror-particle boundaries: kernel,
 // hydrostatic tank (density error, pressure against
-// rho g d, rest), warm starts through reorder / removal / checkpoints.
+// rho g d, rest), warm starts through reorder / removal / checkpoints, the
+// laminar wall shear (Stokes' first problem) and symmetry planes of a slab.
 #include "libsph/Kernels.h"
 #include "libsph/boundary/BoxBoundary.h"
+#include "libsph/boundary/WallShearStress.h"
 #include "libsph/solver/Simulation.h"
 #include "libsph/solver/TimeStepDFSPH.h"
 
@@ -129,6 +131,8 @@ namespace {
 std::unique_ptr<Simulation> smallDamBreak() {
   const Real a = Real(0.05715), s = a / 8;
   SimulationSettings settings = dfsphSettings(s);
+  settings.boundary.slip = MirrorSlip::LaminarWallShear;  // boundary-layer ages are state too
+  settings.fluid.viscosity = Real(1.0e-3);
   settings.domain.enabled = true;  // the front leaves at x = 3a: particles are removed
   settings.domain.min = Vec3r(-0.1, -0.1, -0.1);
   settings.domain.max = Vec3r(3 * a, 0.1, 0.5);
@@ -165,9 +169,10 @@ TEST(DFSPH, WarmStartsFollowReorderRemovalAndCheckpoints) {
   std::stringstream coldCheckpoint;
   cold->save(coldCheckpoint);
   std::string bytes = coldCheckpoint.str();
-  // Zero the strategy's arrays at the end of the checkpoint (two arrays of n Reals and a double).
+  // Zero the first of the strategy's arrays at the end of the checkpoint (two warm-start
+  // arrays of n Reals, a double, the boundary-layer ages).
   const std::size_t n = cold->particles().size();
-  const std::size_t tail = 2 * (sizeof(std::uint64_t) + n * sizeof(Real)) + sizeof(double);
+  const std::size_t tail = 3 * (sizeof(std::uint64_t) + n * sizeof(Real)) + sizeof(double);
   ASSERT_GT(bytes.size(), tail);
   for (std::size_t k = bytes.size() - tail + sizeof(std::uint64_t); k < bytes.size() - tail + sizeof(std::uint64_t) + n * sizeof(Real); ++k)
     bytes[k] = 0;
@@ -179,4 +184,73 @@ TEST(DFSPH, WarmStartsFollowReorderRemovalAndCheckpoints) {
   const bool sameCount = coldResumed->particles().size() == a.size();
   EXPECT_TRUE(!sameCount ||
               std::memcmp(a.position.data(), coldResumed->particles().position.data(), a.size() * sizeof(Vec3r)) != 0);
+}
+
+TEST(WallShear, StepsComposeToStokesFirstProblem) {
+  // u(t) / u(0) = exp(-(2 / s) sqrt(nu / pi) sqrt(t)) whether taken in one step or many.
+  const Real nu = Real(1.0e-6), s = Real(0.002);
+  const double end = 0.1;
+  const double expected = std::exp(-(2.0 / double(s)) * std::sqrt(double(nu) / 3.14159265358979323846) * std::sqrt(end));
+  EXPECT_NEAR(double(laminarWallShearDecay(nu, s, 0.0, end)), expected, 1e-6);
+  double product = 1;
+  const int steps = 1000;
+  for (int k = 0; k < steps; ++k) product *= double(laminarWallShearDecay(nu, s, k * end / steps, end / steps));
+  EXPECT_NEAR(product, expected, 1e-5);
+  EXPECT_LT(expected, 0.85);  // a 2 mm layer of water loses over 15 % of its slip in 0.1 s
+  EXPECT_EQ(laminarWallShearDecay(Real(0), s, 0.0, end), Real(1));
+}
+
+TEST(WallShear, SlidingBlockLosesTheStokesMomentumAtTheFloorOnly) {
+  // A block of water sliding at u0 over the floor of a slab (y faces: symmetry planes),
+  // no gravity: the wall shear tau_w = mu u / sqrt(pi nu t) acts on the floor layer
+  // only. After 0.05 s the total x momentum lost must be that of the floor layer decayed
+  // by Stokes' law (the layer slides over the one above; the viscous coupling of water
+  // is negligible over 0.05 s), and the symmetry planes must take none.
+  const Real s = Real(0.002), u0 = Real(0.2);
+  SimulationSettings settings = dfsphSettings(s);
+  settings.solver.gravity = Vec3r::Zero();
+  settings.solver.expectedSpeed = u0;
+  settings.boundary.slip = MirrorSlip::LaminarWallShear;
+  settings.fluid.viscosity = Real(1.0e-3);
+  settings.solver.artificialViscosity = 0;  // the numerical viscosity would couple the layers
+  Simulation sim(settings);
+  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(1, 4 * s, 1), false, 2u));
+  const std::size_t count = sim.addFluidBox(Vec3r(0.1, 0, 0), Vec3r(0.1 + 20 * s, 4 * s, 6 * s), Vec3r(u0, 0, 0));
+  ASSERT_EQ(count, 20u * 4u * 6u);
+  while (sim.time() < 0.05) sim.step();
+  const Particles& p = sim.particles();
+  double floorMomentum = 0, otherMomentum = 0;
+  std::size_t floorCount = 0, otherCount = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.position[i].z() < s) {
+      floorMomentum += double(p.velocity[i].x());
+      ++floorCount;
+    } else {
+      otherMomentum += double(p.velocity[i].x());
+      ++otherCount;
+    }
+  }
+  ASSERT_EQ(floorCount, 20u * 4u);
+  const double nu = 1.0e-6;
+  const double stokes = std::exp(-(2.0 / double(s)) * std::sqrt(nu / 3.14159265358979323846) * std::sqrt(sim.time()));
+  EXPECT_NEAR(floorMomentum / floorCount / double(u0), stokes, 0.02) << "floor layer against Stokes' first problem";
+  EXPECT_NEAR(otherMomentum / otherCount / double(u0), 1.0, 0.01) << "layers above keep their speed";
+  // Free slip loses nothing: the decay above is the model's.
+  EXPECT_LT(stokes, 0.9);
+}
+
+TEST(BoxBoundary, SymmetryFacesMarkTheirMirrorMaps) {
+  const auto tank = BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(1, 0.1, 1), false, 2u);
+  std::vector<MirrorMap> maps;
+  tank->mirrorMaps(Vec3r(0.01, 0.01, 0.01), Real(0.02), 0, maps);  // corner: x, y, z walls
+  ASSERT_EQ(maps.size(), 7u);  // three reflections, three edges, one corner
+  int symmetric = 0;
+  for (const MirrorMap& map : maps) {
+    const bool reflection = std::abs(map.linear.trace() - Real(1)) < Real(1e-4);
+    const bool acrossY = map.linear(1, 1) < 0;
+    // Only the y reflection alone is a symmetry plane; products with a wall are walls.
+    EXPECT_EQ(map.symmetry, reflection && acrossY);
+    symmetric += map.symmetry;
+  }
+  EXPECT_EQ(symmetric, 1);
 }

@@ -19,8 +19,16 @@
 // and a log-log plot (gnuplot, pngcairo or png) of front error against wall
 // time, one line per solver, next to the JSON (or to --plot).
 //
+// The fluid is water (mu = 1.0e-3 Pa s); floor and end walls are walls with the wall
+// shear of a laminar boundary layer (MirrorSlip::LaminarWallShear, Stokes' first
+// problem; DFSPH applies it, WCSPH treats it as free slip); the slab's y faces are
+// symmetry planes (a 2-D flow), never walls.
+//
 // Environment (for quick runs): CASCADE_ACCURACY_SOLVERS="wcsph,dfsph",
 // CASCADE_ACCURACY_RESOLUTIONS="8,12,18,27,36" (a / s, particles across the column).
+// Diagnostics (convergence studies): CASCADE_ACCURACY_SLIP=free|no|laminar,
+// CASCADE_ACCURACY_VISCOSITY (Pa s), CASCADE_ACCURACY_ARTIFICIAL_VISCOSITY (alpha),
+// CASCADE_ACCURACY_CURVES=DIR (writes DIR/<solver>_<a/s>.dat: t, Z, T, H, tau per sample).
 #include "Benchmarks.h"
 
 #include "libsph/Errors.h"
@@ -50,6 +58,7 @@ namespace {
 
 constexpr double kA = 0.05715;           // m, Martin & Moyce column width a (2.25 in)
 constexpr int kSlabLayers = 4;           // particles across the slab (y)
+constexpr unsigned kSlabSides = 2;       // the slab's y faces are symmetry planes (a 2-D flow), not walls
 constexpr double kEndTime = 0.3;         // s: T = 5.5, tau = 3.9
 constexpr double kSampleInterval = 1e-3; // s between probe samples
 constexpr double kSettleTime = 0.4;      // s, hydrostatic tank
@@ -79,6 +88,18 @@ SimulationSettings settingsFor(const std::string& solver, double spacing) {
   settings.solver.type = solver;
   // Each solver at its usual CFL number: WCSPH's includes the speed of sound.
   settings.solver.cflFactor = Real(solver == "dfsph" ? 0.5 : 0.4);
+  // The experiment's fluid is water: mu = 1.0e-3 Pa s (20 C); its walls (floor, end walls)
+  // exert the shear of a laminar boundary layer (WallShearStress.h; DFSPH, WCSPH: free slip).
+  settings.fluid.viscosity = Real(1.0e-3);
+  settings.boundary.slip = MirrorSlip::LaminarWallShear;
+  // Diagnostics for convergence studies (the table uses the values above).
+  if (const char* v = std::getenv("CASCADE_ACCURACY_ARTIFICIAL_VISCOSITY"); v && *v)
+    settings.solver.artificialViscosity = Real(std::stod(v));
+  if (const char* v = std::getenv("CASCADE_ACCURACY_VISCOSITY"); v && *v) settings.fluid.viscosity = Real(std::stod(v));
+  if (const char* v = std::getenv("CASCADE_ACCURACY_SLIP"); v && *v) {
+    const std::string slip = v;
+    settings.boundary.slip = slip == "no" ? MirrorSlip::NoSlip : slip == "free" ? MirrorSlip::FreeSlip : MirrorSlip::LaminarWallShear;
+  }
   return settings;
 }
 
@@ -123,7 +144,7 @@ void runDamBreak(Row& row) {
   const std::clock_t cpuStart = std::clock();
   const double s = row.spacing, width = s * kSlabLayers;
   Simulation sim(settingsFor(row.solver, s));
-  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(Real(8 * kA), Real(width), Real(4 * kA))));
+  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(Real(8 * kA), Real(width), Real(4 * kA)), false, kSlabSides));
   row.fluid = static_cast<long long>(sim.addFluidBox(Vec3r(0, 0, 0), Vec3r(Real(kA), Real(width), Real(2 * kA))));
   std::vector<std::pair<double, double>> front, height;
   auto sample = [&] {
@@ -146,6 +167,14 @@ void runDamBreak(Row& row) {
   row.msPerStep = 1e3 * row.wall / row.steps;
   int frontPoints = 0, heightPoints = 0;
   row.frontRms = rmsError(kFrontTable, std::sqrt(2 * kStandardGravity / kA), front, frontPoints);
+  if (const char* dir = std::getenv("CASCADE_ACCURACY_CURVES"); dir && *dir) {
+    // The probe series for convergence studies: t, Z = x/a, T = t sqrt(2g/a), H, tau.
+    std::ofstream out(std::filesystem::path(dir) / (row.solver + "_" + std::to_string(int(std::lround(kA / s))) + ".dat"));
+    out << "# t Z T H tau\n";
+    for (std::size_t k = 0; k < front.size(); ++k)
+      out << front[k].first << ' ' << front[k].second << ' ' << front[k].first * std::sqrt(2 * kStandardGravity / kA) << ' '
+          << height[k].second << ' ' << front[k].first * std::sqrt(kStandardGravity / kA) << '\n';
+  }
   row.heightRms = rmsError(kHeightTable, std::sqrt(kStandardGravity / kA), height, heightPoints);
 }
 
@@ -153,7 +182,7 @@ void runHydrostatic(Row& row) {
   const auto start = Clock::now();
   const double s = row.spacing, width = s * kSlabLayers;
   Simulation sim(settingsFor(row.solver, s));
-  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(Real(kA), Real(width), Real(4 * kA))));
+  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(Real(kA), Real(width), Real(4 * kA)), false, kSlabSides));
   sim.addFluidBox(Vec3r(0, 0, 0), Vec3r(Real(kA), Real(width), Real(2 * kA)));
   const double restDensity = sim.settings().fluid.restDensity;
   const double expected = restDensity * kStandardGravity * 2 * kA;  // rho g H
