@@ -1,11 +1,14 @@
 #include "surfacing/MeshCleanup.h"
 
+#include "surfacing/detail/Profile.h"
+
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/remesh.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_stop_predicate.h>
 #include <CGAL/Surface_mesh_simplification/edge_collapse.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_reduce.h>
 
 #include <cmath>
@@ -53,16 +56,27 @@ void removeUnreferencedVertices(TriangleMesh& mesh) {
 }
 
 void computeVertexNormals(TriangleMesh& mesh) {
-  mesh.normals.assign(mesh.vertices.size(), Eigen::Vector3f::Zero());
-  for (const auto& t : mesh.triangles) {  // area-weighted: the unnormalised face normal
-    const Eigen::Vector3f n =
-        (mesh.vertices[t[1]] - mesh.vertices[t[0]]).cross(mesh.vertices[t[2]] - mesh.vertices[t[0]]);
-    for (std::uint32_t v : t) mesh.normals[v] += n;
-  }
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.normals.size(), 8192), [&](const auto& range) {
+  // Area-weighted (the unnormalised face normal), summed per vertex. Two fixed
+  // halves of the triangle list accumulate into their own arrays in parallel and
+  // are added in a fixed order: the same result for any number of threads.
+  const std::size_t n = mesh.vertices.size(), half = mesh.triangles.size() / 2;
+  std::vector<Eigen::Vector3f> second(n, Eigen::Vector3f::Zero());
+  mesh.normals.assign(n, Eigen::Vector3f::Zero());
+  auto accumulate = [&](std::size_t begin, std::size_t end, std::vector<Eigen::Vector3f>& normals) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const auto& t = mesh.triangles[i];
+      const Eigen::Vector3f normal =
+          (mesh.vertices[t[1]] - mesh.vertices[t[0]]).cross(mesh.vertices[t[2]] - mesh.vertices[t[0]]);
+      for (std::uint32_t v : t) normals[v] += normal;
+    }
+  };
+  tbb::parallel_invoke([&] { accumulate(0, half, mesh.normals); },
+                       [&] { accumulate(half, mesh.triangles.size(), second); });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 8192), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const float length = mesh.normals[i].norm();
-      mesh.normals[i] = length > 0 ? Eigen::Vector3f(mesh.normals[i] / length) : Eigen::Vector3f(0, 0, 1);
+      const Eigen::Vector3f sum = mesh.normals[i] + second[i];
+      const float length = sum.norm();
+      mesh.normals[i] = length > 0 ? Eigen::Vector3f(sum / length) : Eigen::Vector3f(0, 0, 1);
     }
   });
 }
@@ -113,23 +127,26 @@ double meshVolume(const TriangleMesh& mesh) {
 
 MeshCleanupStats cleanupMesh(TriangleMesh& mesh, const MeshCleanupSettings& settings) {
   MeshCleanupStats stats;
-  // 1. Degenerate triangles.
+  detail::ProfileClock profile;
+  // 1. Degenerate triangles (tested in parallel, kept in order).
+  std::vector<std::uint8_t> good(mesh.triangles.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.triangles.size(), 16384), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const auto& t = mesh.triangles[i];
+      const bool repeated = t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
+      good[i] = !repeated && (mesh.vertices[t[1]] - mesh.vertices[t[0]])
+                                     .cross(mesh.vertices[t[2]] - mesh.vertices[t[0]])
+                                     .squaredNorm() > 0;
+    }
+  });
   std::vector<std::array<std::uint32_t, 3>> kept;
   kept.reserve(mesh.triangles.size());
-  for (const auto& t : mesh.triangles) {
-    const bool repeated = t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
-    if (!repeated) {
-      const Eigen::Vector3f n =
-          (mesh.vertices[t[1]] - mesh.vertices[t[0]]).cross(mesh.vertices[t[2]] - mesh.vertices[t[0]]);
-      if (n.squaredNorm() > 0) {
-        kept.push_back(t);
-        continue;
-      }
-    }
-    ++stats.degenerateTriangles;
-  }
+  for (std::size_t i = 0; i < mesh.triangles.size(); ++i)
+    if (good[i]) kept.push_back(mesh.triangles[i]);
+  stats.degenerateTriangles = mesh.triangles.size() - kept.size();
   mesh.triangles.swap(kept);
 
+  profile.lap("cleanup: degenerate");
   // 2. Components and their volumes (relative to a local origin, for precision).
   UnionFind components(mesh.vertices.size());
   for (const auto& t : mesh.triangles) {
@@ -165,9 +182,13 @@ MeshCleanupStats cleanupMesh(TriangleMesh& mesh, const MeshCleanupSettings& sett
   // 3. Outward orientation.
   if (total < 0) {
     stats.flipped = true;
-    for (auto& t : mesh.triangles) std::swap(t[1], t[2]);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.triangles.size(), 16384), [&](const auto& range) {
+      for (std::size_t i = range.begin(); i != range.end(); ++i) std::swap(mesh.triangles[i][1], mesh.triangles[i][2]);
+    });
   }
+  profile.lap("cleanup: components, orient");
   removeUnreferencedVertices(mesh);
+  profile.lap("cleanup: unreferenced");
 
   // 4. CGAL remeshing / decimation.
   if ((settings.remeshEdgeLength > 0 || (settings.triangleBudget > 0 &&
@@ -188,6 +209,7 @@ MeshCleanupStats cleanupMesh(TriangleMesh& mesh, const MeshCleanupSettings& sett
 
   // 5. Normals.
   computeVertexNormals(mesh);
+  profile.lap("cleanup: normals");
   return stats;
 }
 

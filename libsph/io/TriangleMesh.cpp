@@ -225,11 +225,14 @@ void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const
           *out++ = 'f';
           for (auto index : mesh.triangles[t]) {
             *out++ = ' ';
+            char* const first = out;
             out = putIndex(out, std::uint64_t(index) + 1);
-            if (withNormals) {
+            if (withNormals) {  // "v//vn" with vn == v: the digits once, copied
+              const std::size_t length = std::size_t(out - first);
               *out++ = '/';
               *out++ = '/';
-              out = putIndex(out, std::uint64_t(index) + 1);
+              std::memcpy(out, first, length);
+              out += length;
             }
           }
           *out++ = '\n';
