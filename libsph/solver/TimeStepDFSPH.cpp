@@ -5,6 +5,12 @@
 #include "libsph/boundary/BoundaryParticles.h"
 #include "libsph/boundary/WallShearStress.h"
 
+#if (defined(__x86_64__) || defined(__i386__)) && !defined(CASCADE_DOUBLE) && \
+    (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#define CASCADE_DFSPH_AVX2 1
+#endif
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
@@ -12,6 +18,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <istream>
 #include <limits>
@@ -85,6 +92,123 @@ void readVector(std::istream& in, std::vector<T>& values) {
   in.read(reinterpret_cast<char*>(values.data()), std::streamsize(n * sizeof(T)));
   if (!in) throw InputError("checkpoint: truncated DFSPH warm-start data");
 }
+
+/// The sums of one particle's fluid pairs in prepare() (see there).
+struct PairSums {
+  Real density = 0, gradientSquares = 0, rate = 0;
+  Vec3r gradientSum = Vec3r::Zero(), viscous = Vec3r::Zero();
+  std::uint32_t stored = 0, inside = 0;  // pair terms written; neighbours strictly inside the support
+};
+
+/// Constants of the pair pass.
+struct PairConstants {
+  Real supportRadius2, inverseSupport, valueCoeff, gradientCoeff, volume, epsilon2, viscosity, artificial;
+};
+
+#ifdef CASCADE_DFSPH_AVX2
+#define CASCADE_DFSPH_TARGET __attribute__((target("avx2,fma")))
+
+CASCADE_DFSPH_TARGET inline float horizontalSum(__m256 v) {
+  const __m128 s = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
+  const __m128 t = _mm_add_ps(s, _mm_movehl_ps(s, s));
+  return _mm_cvtss_f32(_mm_add_ss(t, _mm_shuffle_ps(t, t, 1)));
+}
+
+/// prepare()'s pair loop for eight neighbours at a time (the same terms as the scalar
+/// loop; a neighbour on the support's edge or on top of i is stored with a zero
+/// gradient instead of dropped, so rows stay in order and need no compaction).
+CASCADE_DFSPH_TARGET void fluidPairsAvx2(const Vec3r& xi, const Vec3r& vi, const Vec3r* position,
+                                         const Vec3r* velocity, const std::uint32_t* neighbors, std::uint32_t count,
+                                         const PairConstants& k, void* pairsOut, PairSums& sums) {
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
+  const __m256 pxi = _mm256_set1_ps(xi.x()), pyi = _mm256_set1_ps(xi.y()), pzi = _mm256_set1_ps(xi.z());
+  const __m256 vxi = _mm256_set1_ps(vi.x()), vyi = _mm256_set1_ps(vi.y()), vzi = _mm256_set1_ps(vi.z());
+  const __m256 h2 = _mm256_set1_ps(k.supportRadius2), invH = _mm256_set1_ps(k.inverseSupport);
+  const __m256 eps2 = _mm256_set1_ps(k.epsilon2), volume = _mm256_set1_ps(k.volume);
+  const __m256 valueCoeff = _mm256_set1_ps(k.valueCoeff), gradientCoeff = _mm256_set1_ps(k.gradientCoeff);
+  const __m256 viscosity = _mm256_set1_ps(Real(10) * k.viscosity), artificial = _mm256_set1_ps(k.artificial);
+  __m256 density = zero, squares = zero, rate = zero, gx = zero, gy = zero, gz = zero, ax = zero, ay = zero, az = zero;
+  const float* pos = position[0].data();
+  const float* vel = velocity[0].data();
+  float* out = static_cast<float*>(pairsOut);
+  std::uint32_t inside = 0;
+  for (std::uint32_t base = 0; base < count; base += 8) {
+    const std::uint32_t lanes = std::min<std::uint32_t>(8, count - base);
+    alignas(32) std::int32_t index[8];
+    for (std::uint32_t l = 0; l < 8; ++l) index[l] = static_cast<std::int32_t>(neighbors[base + (l < lanes ? l : 0)]);
+    const __m256i j = _mm256_load_si256(reinterpret_cast<const __m256i*>(index));
+    const __m256i j3 = _mm256_add_epi32(j, _mm256_add_epi32(j, j));
+    const __m256 rx = _mm256_sub_ps(pxi, _mm256_i32gather_ps(pos, j3, 4));
+    const __m256 ry = _mm256_sub_ps(pyi, _mm256_i32gather_ps(pos + 1, j3, 4));
+    const __m256 rz = _mm256_sub_ps(pzi, _mm256_i32gather_ps(pos + 2, j3, 4));
+    const __m256 r2 = _mm256_fmadd_ps(rx, rx, _mm256_fmadd_ps(ry, ry, _mm256_mul_ps(rz, rz)));
+    const __m256 laneOk = _mm256_castsi256_ps(
+        _mm256_cmpgt_epi32(_mm256_set1_epi32(static_cast<int>(lanes)), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
+    const __m256 valid =
+        _mm256_and_ps(laneOk, _mm256_and_ps(_mm256_cmp_ps(r2, h2, _CMP_LT_OQ), _mm256_cmp_ps(r2, zero, _CMP_GT_OQ)));
+    inside += static_cast<std::uint32_t>(__builtin_popcount(_mm256_movemask_ps(valid)));
+    const __m256 safe2 = _mm256_blendv_ps(h2, r2, valid);  // invalid lanes: any positive distance
+    const __m256 length = _mm256_sqrt_ps(safe2);
+    const __m256 q = _mm256_mul_ps(length, invH), d = _mm256_sub_ps(one, q);
+    const __m256 inner = _mm256_cmp_ps(q, _mm256_set1_ps(0.5f), _CMP_LE_OQ);
+    // W: 6 q^2 (q - 1) + 1 inside q <= 1/2, 2 d^3 outside; W': q (3 q - 2), -d^2.
+    const __m256 valueInner = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_set1_ps(6.0f), _mm256_mul_ps(q, q)), _mm256_sub_ps(q, one), one);
+    const __m256 valueOuter = _mm256_mul_ps(_mm256_set1_ps(2.0f), _mm256_mul_ps(d, _mm256_mul_ps(d, d)));
+    const __m256 value = _mm256_mul_ps(valueCoeff, _mm256_blendv_ps(valueOuter, valueInner, inner));
+    const __m256 slopeInner = _mm256_mul_ps(q, _mm256_fmsub_ps(_mm256_set1_ps(3.0f), q, _mm256_set1_ps(2.0f)));
+    const __m256 slopeOuter = _mm256_sub_ps(zero, _mm256_mul_ps(d, d));
+    const __m256 slope = _mm256_mul_ps(gradientCoeff, _mm256_blendv_ps(slopeOuter, slopeInner, inner));
+    const __m256 shifted = _mm256_add_ps(safe2, eps2);
+    const __m256 inverse = _mm256_div_ps(one, _mm256_mul_ps(length, shifted));
+    density = _mm256_add_ps(density, _mm256_and_ps(valid, _mm256_mul_ps(volume, value)));
+    const __m256 scale = _mm256_and_ps(valid, _mm256_mul_ps(_mm256_mul_ps(volume, slope), _mm256_mul_ps(shifted, inverse)));
+    const __m256 ggx = _mm256_mul_ps(scale, rx), ggy = _mm256_mul_ps(scale, ry), ggz = _mm256_mul_ps(scale, rz);
+    // Pair terms {j, g}: a 4 x 8 transpose into eight 16-byte records.
+    {
+      const __m256 a = _mm256_castsi256_ps(j);
+      const __m256 t0 = _mm256_unpacklo_ps(a, ggx), t1 = _mm256_unpackhi_ps(a, ggx);
+      const __m256 t2 = _mm256_unpacklo_ps(ggy, ggz), t3 = _mm256_unpackhi_ps(ggy, ggz);
+      const __m256 u0 = _mm256_shuffle_ps(t0, t2, 0x44), u1 = _mm256_shuffle_ps(t0, t2, 0xEE);
+      const __m256 u2 = _mm256_shuffle_ps(t1, t3, 0x44), u3 = _mm256_shuffle_ps(t1, t3, 0xEE);
+      alignas(32) float records[32];
+      _mm256_store_ps(records + 0, _mm256_permute2f128_ps(u0, u1, 0x20));
+      _mm256_store_ps(records + 8, _mm256_permute2f128_ps(u2, u3, 0x20));
+      _mm256_store_ps(records + 16, _mm256_permute2f128_ps(u0, u1, 0x31));
+      _mm256_store_ps(records + 24, _mm256_permute2f128_ps(u2, u3, 0x31));
+      std::memcpy(out + 4 * base, records, std::size_t(lanes) * 4 * sizeof(float));
+    }
+    gx = _mm256_add_ps(gx, ggx);
+    gy = _mm256_add_ps(gy, ggy);
+    gz = _mm256_add_ps(gz, ggz);
+    squares = _mm256_fmadd_ps(_mm256_mul_ps(scale, scale), safe2, squares);
+    const __m256 vxj = _mm256_i32gather_ps(vel, j3, 4);
+    const __m256 vyj = _mm256_i32gather_ps(vel + 1, j3, 4);
+    const __m256 vzj = _mm256_i32gather_ps(vel + 2, j3, 4);
+    rate = _mm256_fmadd_ps(vxj, ggx, _mm256_fmadd_ps(vyj, ggy, _mm256_fmadd_ps(vzj, ggz, rate)));
+    const __m256 vx = _mm256_fmadd_ps(_mm256_sub_ps(vxi, vxj), rx,
+                                      _mm256_fmadd_ps(_mm256_sub_ps(vyi, vyj), ry, _mm256_mul_ps(_mm256_sub_ps(vzi, vzj), rz)));
+    const __m256 factor = _mm256_add_ps(viscosity, _mm256_and_ps(_mm256_cmp_ps(vx, zero, _CMP_LT_OQ), artificial));
+    const __m256 viscous = _mm256_mul_ps(_mm256_mul_ps(factor, vx), _mm256_mul_ps(length, inverse));  // 0 where scale is
+    ax = _mm256_fmadd_ps(viscous, ggx, ax);
+    ay = _mm256_fmadd_ps(viscous, ggy, ay);
+    az = _mm256_fmadd_ps(viscous, ggz, az);
+  }
+  sums.density += horizontalSum(density);
+  sums.gradientSquares += horizontalSum(squares);
+  sums.rate += horizontalSum(rate);
+  sums.gradientSum += Vec3r(horizontalSum(gx), horizontalSum(gy), horizontalSum(gz));
+  sums.viscous += Vec3r(horizontalSum(ax), horizontalSum(ay), horizontalSum(az));
+  sums.stored = count;
+  sums.inside = inside;
+}
+
+bool haveAvx2() {
+  static const bool supported = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  return supported;
+}
+#else
+bool haveAvx2() { return false; }
+#endif
 
 } // namespace
 
@@ -256,6 +380,10 @@ void TimeStepDFSPH::prepare(StepContext& c) {
   // 2 (d + 2) nu = 10 nu, plus the artificial term for approaching pairs.
   auto viscousFactor = [&](Real vx) { return Real(10) * nu + (vx < 0 ? artificial : Real(0)); };
   std::vector<Vec3r>& acceleration = c.acceleration;
+  static_assert(sizeof(PairTerm) == 4 * sizeof(float), "pair terms are 16-byte records");
+  const bool avx2 = haveAvx2() && std::getenv("CASCADE_NO_AVX2") == nullptr;
+  const PairConstants pairConstants{h2, kernel.inverseSupport, kernel.valueCoeff, kernel.gradientCoeff, volume, epsilon2,
+                                    nu, artificial};
   forEachParticle(n, [&](std::size_t i) {
     const Vec3r xi = particles.position[i], vi = velocity[i];
     Real density = volume * selfValue;
@@ -264,8 +392,22 @@ void TimeStepDFSPH::prepare(StepContext& c) {
     Real rate = 0;  // sum_j c_ij v_j . (x_i - x_j)
     Vec3r viscous = Vec3r::Zero();
     PairTerm* pair = mPairs.data() + nl.offsets[i];
-    std::uint32_t count = 0;
-    for (std::uint32_t k = nl.offsets[i]; k < nl.offsets[i + 1]; ++k) {
+    std::uint32_t count = 0, stored = 0;
+#ifdef CASCADE_DFSPH_AVX2
+    if (avx2) {
+      PairSums sums;
+      fluidPairsAvx2(xi, vi, particles.position.data(), velocity.data(), nl.indices.data() + nl.offsets[i],
+                     nl.offsets[i + 1] - nl.offsets[i], pairConstants, pair, sums);
+      density += sums.density;
+      gradientSum = sums.gradientSum;
+      gradientSquares = sums.gradientSquares;
+      rate = sums.rate;
+      viscous = sums.viscous;
+      stored = sums.stored;
+      count = sums.inside;
+    }
+#endif
+    for (std::uint32_t k = avx2 ? nl.offsets[i + 1] : nl.offsets[i]; k < nl.offsets[i + 1]; ++k) {
       const std::uint32_t j = nl.indices[k];
       const Vec3r r = xi - particles.position[j];
       const Real r2 = r.squaredNorm();
@@ -281,7 +423,8 @@ void TimeStepDFSPH::prepare(StepContext& c) {
       density += volume * value;
       const Real scale = volume * slope * shifted * inverse;  // V grad W_ij = scale (x_i - x_j)
       const Vec3r g = scale * r;
-      pair[count++] = PairTerm{j, g.x(), g.y(), g.z()};
+      pair[stored++] = PairTerm{j, g.x(), g.y(), g.z()};
+      ++count;
       gradientSum += g;
       gradientSquares += scale * scale * r2;
       const Vec3r& vj = velocity[j];
@@ -291,7 +434,7 @@ void TimeStepDFSPH::prepare(StepContext& c) {
       const Real vx = (vi - vj).dot(r);
       viscous += (viscousFactor(vx) * vx * length * inverse) * g;
     }
-    mPairCount[i] = count;
+    mPairCount[i] = stored;
     Real denominator;
     Real gravityRate = 0;
     const std::uint32_t l = mLayerIndex[i];
