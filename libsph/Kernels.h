@@ -3,7 +3,8 @@
 ///        ("Particle-based fluid simulation for interactive applications"),
 ///        as the SEED uses them: poly6 for density (SEED (7)), spiky for the
 ///        pressure gradient (SEED (8)), viscosity for the velocity Laplacian
-///        (SEED (9)).
+///        (SEED (9)); and the cubic spline (Monaghan 1992) and Wendland C2
+///        (Wendland 1995) used for density and gradient alike.
 ///
 /// Each kernel has support radius h (zero for r > h) and integrates to 1 over
 /// R^3. `r` is the vector x_i - x_j; gradients are with respect to x_i, so
@@ -137,6 +138,34 @@ struct KernelCubicSpline {
       s = -gradientCoeff * d * d;
     }
     return (s / len) * r;
+  }
+};
+
+/// Wendland C2 (Wendland 1995) in 3-D with support h (zero for r >= h), as
+/// Dehnen & Aly 2012 (MNRAS 425, table 1) normalise it:
+/// W = 21/(2 pi h^3) (1 - q)^4 (1 + 4 q), q = r/h. Positive Fourier transform,
+/// so no pairing instability (Dehnen & Aly 2012, section 3).
+struct KernelWendlandC2 {
+  Real supportRadius;
+  Real valueCoeff, gradientCoeff, inverseSupport;
+
+  explicit KernelWendlandC2(Real h)
+      : supportRadius(h), valueCoeff(Real(21) / (Real(2) * kPi * h * h * h)),
+        gradientCoeff(Real(-210) / (kPi * h * h * h * h * h)), inverseSupport(Real(1) / h) {}
+
+  Real value(Real r) const {
+    if (r >= supportRadius) return Real(0);
+    const Real q = r * inverseSupport;
+    const Real d = Real(1) - q, d2 = d * d;
+    return valueCoeff * d2 * d2 * (Real(1) + Real(4) * q);
+  }
+  Real valueFromSquared(Real r2) const { return value(std::sqrt(r2)); }
+  /// grad W = -210/(pi h^5) (1 - q)^3 r_vec (smooth, zero at r = 0).
+  Vec3r gradient(const Vec3r& r) const {
+    const Real len = r.norm();
+    if (len >= supportRadius) return Vec3r::Zero();
+    const Real d = Real(1) - len * inverseSupport;
+    return (gradientCoeff * d * d * d) * r;
   }
 };
 

@@ -435,7 +435,11 @@ Scene parseScene(const json& value, const std::string& fileLabel, const fs::path
     s.stiffness = solver.number("stiffness", s.stiffness, Range::NonNegative);
     s.taitExponent = solver.numberIn("tait_exponent", s.taitExponent, 1, 10);
     s.clampNegativePressure = solver.boolean("clamp_negative_pressure", s.clampNegativePressure);
+    s.kernels = solver.choice("kernels", s.kernels, {"wendland_c2", "cubic_spline", "mueller2003"});
+    s.pressureForce = solver.choice("pressure_force", s.pressureForce, {"hamiltonian", "symmetric", "mueller_half"});
+    s.surfaceLayerPressure = solver.boolean("surface_layer_pressure", s.surfaceLayerPressure);
     s.artificialViscosity = solver.numberIn("artificial_viscosity", s.artificialViscosity, 0, 2);
+    s.artificialViscosityAllPairs = solver.boolean("artificial_viscosity_all_pairs", s.artificialViscosityAllPairs);
     s.expectedSpeed = solver.number("expected_speed", s.expectedSpeed, Range::NonNegative);
     s.instabilitySpeedFactor = solver.numberIn("instability_speed_factor", s.instabilitySpeedFactor, 1, 1e6);
     s.densityTolerance = solver.numberIn("density_tolerance", s.densityTolerance, 1e-7, 0.5);
@@ -566,7 +570,11 @@ json sceneToJson(const Scene& scene) {
               {"stiffness", s.stiffness},
               {"tait_exponent", s.taitExponent},
               {"clamp_negative_pressure", s.clampNegativePressure},
+              {"kernels", s.kernels},
+              {"pressure_force", s.pressureForce},
+              {"surface_layer_pressure", s.surfaceLayerPressure},
               {"artificial_viscosity", s.artificialViscosity},
+              {"artificial_viscosity_all_pairs", s.artificialViscosityAllPairs},
               {"expected_speed", s.expectedSpeed},
               {"instability_speed_factor", s.instabilitySpeedFactor},
               {"density_tolerance", s.densityTolerance},

@@ -53,7 +53,15 @@ SimulationSettings simulationSettings(const Scene& scene) {
   solver.taitExponent = Real(s.taitExponent);
   solver.stiffness = Real(s.stiffness);
   solver.clampNegativePressure = s.clampNegativePressure;
+  solver.kernels = s.kernels == "mueller2003"    ? KernelPair::Mueller2003
+                   : s.kernels == "cubic_spline" ? KernelPair::CubicSpline
+                                                 : KernelPair::WendlandC2;
+  solver.pressureForce = s.pressureForce == "symmetric"      ? PressureForce::Symmetric
+                         : s.pressureForce == "mueller_half" ? PressureForce::MuellerHalf
+                                                             : PressureForce::Hamiltonian;
+  solver.surfaceLayerPressure = s.surfaceLayerPressure;
   solver.artificialViscosity = Real(s.artificialViscosity);
+  solver.artificialViscosityAllPairs = s.artificialViscosityAllPairs;
   solver.expectedSpeed = Real(s.expectedSpeed);
   solver.instabilitySpeedFactor = Real(s.instabilitySpeedFactor);
   solver.densityTolerance = Real(s.densityTolerance);

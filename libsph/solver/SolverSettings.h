@@ -39,6 +39,25 @@ enum class PressureForce {
   /// the bulk it gives grad p / 2, so the pressure that holds water at rest is
   /// twice rho g d (the hydrostatic test fails by a factor 2).
   MuellerHalf,
+  /// Monaghan (1992, 2005) symmetric (Hamiltonian) form
+  /// -m_j (p_i / rho_i^2 + p_j / rho_j^2) grad W: the force that follows from
+  /// the summation density by the variational principle, so with the density
+  /// summed with the same kernel it conserves momentum and energy (the
+  /// equilibrium is a minimum of the energy).
+  Hamiltonian,
+};
+
+/// The kernels of the WCSPH density (SEED (4)) and pressure gradient (SEED (5)).
+enum class KernelPair {
+  /// The SEED's pair (Mueller 2003): poly6 density SEED (7), spiky gradient
+  /// SEED (8). The two do not match: on the particle lattice about 10 % of the
+  /// short waves change the poly6 density with the opposite sign of the spiky
+  /// pressure response, and grow (about 137 /s in a still tank at 1 cm).
+  Mueller2003,
+  /// Cubic spline (Monaghan 1992) for both density and gradient.
+  CubicSpline,
+  /// Wendland C2 (Wendland 1995; Dehnen & Aly 2012) for both density and gradient.
+  WendlandC2,
 };
 
 struct SolverSettings {
@@ -51,10 +70,33 @@ struct SolverSettings {
   /// k of SEED (10), m^2/s^2 (= squared speed of sound). 0: (10 * expectedSpeed)^2,
   /// the weakly compressible choice (density varies by about 1 %).
   Real stiffness = Real(0);
-  PressureForce pressureForce = PressureForce::Symmetric;
+  /// Default: the Hamiltonian form with the Wendland C2 pair below (the
+  /// still-water test; README "Solvers and their limits").
+  PressureForce pressureForce = PressureForce::Hamiltonian;
+  /// Density and pressure-gradient kernels of WCSPH (the viscosity Laplacian stays
+  /// SEED (9)). Default Wendland C2: at h = 2 spacings the resting particle
+  /// lattice under pressure is linearly stable with it; with the SEED pair it is
+  /// not (any pressure), with the cubic spline only below a small pressure.
+  KernelPair kernels = KernelPair::WendlandC2;
   bool clampNegativePressure = true;  ///< p = max(p, 0): no tensile pull at the free surface
+  /// WCSPH, with clampNegativePressure: particles of a water body (rho >= 0.8 rho_0)
+  /// keep at least p = rho_0 |g| s / 2, the hydrostatic pressure at the centre of
+  /// the top particle layer (half a spacing below the surface), instead of the
+  /// clamp's 0 (the summed density of the top layer is ~0.88 rho_0). With h = 2
+  /// spacings, layers an odd and an even number of spacings deep do not see each
+  /// other's pressure (W(2 s) = 0), so a top layer at 0 offsets the two sets of
+  /// layers by -/+ rho_0 |g| s / 2 (a pressure zigzag, 2.3 % of rho g H in the
+  /// 16 cm hydrostatic tank).
+  bool surfaceLayerPressure = true;
   /// Monaghan (1992) artificial viscosity alpha, added to SEED (6) for stability; 0 = off.
   Real artificialViscosity = Real(0.1);
+  /// WCSPH: the artificial viscosity term also for receding pairs (v_ij . r_ij > 0),
+  /// not only approaching ones (Monaghan 1992). Applied to all pairs it is a shear
+  /// viscosity of order alpha h c / 10 (Monaghan 2005, Rep. Prog. Phys. 68, sec. 4),
+  /// which damps the sideways slip of the pressure-free top particle layer over
+  /// the layer below (a receding/approaching pair pattern the one-sided term
+  /// barely sees; 4-6 % of sqrt(g H) in the still-water tank without it).
+  bool artificialViscosityAllPairs = true;
   /// Hydrostatic initial state (WCSPH only): a fluid box resting on a boundary
   /// (addFluidBox) starts with the density of hydrostatic equilibrium,
   /// rho(d) = rho_0 (1 + |g| d / k) (linear EOS; Tait: rho_0 (1 + gamma |g| d / k)^(1/gamma)),

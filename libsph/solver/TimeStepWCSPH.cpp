@@ -27,65 +27,102 @@ double millisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-/// The pairwise terms shared by fluid and mirror neighbours.
-struct PairTerms {
-  KernelSpiky spiky;
-  KernelViscosity viscosity;
-  Real supportRadius2;
-  Real mass;
-  Real viscosityCoeff;       // mu m
-  Real artificialCoeff;      // alpha h c (Monaghan 1992)
-  Real epsilon2;             // 0.01 h^2
-  Real pressureFactor;       // (1 or 1/2 as printed) / C (lattice gradient correction)
+/// Density (/ rho_0) from which a particle belongs to a water body for the
+/// surface-layer pressure: the top layer of a resting pool has 0.88 (Wendland C2,
+/// h = 2 spacings), isolated spray much less.
+constexpr double kSurfaceLayerDensity = 0.8;
 
-  explicit PairTerms(const StepContext& c)
-      : spiky(c.constants.supportRadius), viscosity(c.constants.supportRadius),
-        supportRadius2(c.constants.supportRadius * c.constants.supportRadius),
-        mass(c.constants.particleMass),
-        viscosityCoeff(c.settings.fluid.viscosity * c.constants.particleMass),
-        artificialCoeff(c.settings.solver.artificialViscosity * c.constants.supportRadius *
-                        c.constants.speedOfSound),
-        epsilon2(Real(0.01) * c.constants.supportRadius * c.constants.supportRadius),
-        pressureFactor((c.settings.solver.pressureForce == PressureForce::MuellerHalf ? Real(0.5) : Real(1)) *
-                       c.constants.gradientCorrection) {}
+/// The kernel pair of the density and the pressure gradient (SolverSettings::kernels):
+/// W(r) = valueCoeff * valueShape(r^2), grad W(r) = gradientCoeff * gradientShape(|r|) * r_vec.
+struct KernelConstants {
+  KernelPair pair = KernelPair::Mueller2003;
+  Real supportRadius = 0, supportRadius2 = 0, inverseSupport = 0;
+  Real valueCoeff = 0, gradientCoeff = 0;
 
-  /// Acceleration of i (times rho_i for the pressure/viscosity parts) from one neighbour j.
-  /// Returns the contribution to a_i.
-  inline Vec3r operator()(const Vec3r& r, Real r2, Real pressureI, Real densityI, const Vec3r& velocityI,
-                          Real pressureJ, Real densityJ, const Vec3r& velocityJ) const {
-    const Real len = std::sqrt(r2);
-    const Real diff = spiky.supportRadius - len;
-    // grad W_spiky = -45/(pi h^6) (h - r)^2 r/|r|  (SEED (8))
-    const Vec3r gradient = (spiky.gradientCoeff * diff * diff / len) * r;
-    // SEED (5) / rho_i: -m (p_i + p_j) / (rho_j rho_i) grad W (times 1/2 as printed)
-    Real scalar = -mass * pressureFactor * (pressureI + pressureJ) / (densityJ * densityI);
-    const Vec3r relativeVelocity = velocityI - velocityJ;
-    if (artificialCoeff > 0) {
-      const Real vr = relativeVelocity.dot(r);
-      if (vr < 0) {
-        // Monaghan 1992: Pi_ij = -alpha h c (v_ij . r_ij) / (rho_avg (r^2 + 0.01 h^2))
-        const Real pi = -artificialCoeff * vr / (Real(0.5) * (densityI + densityJ) * (r2 + epsilon2));
-        scalar -= mass * pi;
-      }
+  KernelConstants() = default;
+  KernelConstants(KernelPair kernels, Real h)
+      : pair(kernels), supportRadius(h), supportRadius2(h * h), inverseSupport(Real(1) / h) {
+    switch (kernels) {
+      case KernelPair::Mueller2003:
+        valueCoeff = KernelPoly6(h).valueCoeff;      // SEED (7)
+        gradientCoeff = KernelSpiky(h).gradientCoeff;  // SEED (8)
+        break;
+      case KernelPair::CubicSpline:
+        valueCoeff = KernelCubicSpline(h).valueCoeff;
+        gradientCoeff = KernelCubicSpline(h).gradientCoeff;
+        break;
+      case KernelPair::WendlandC2:
+        valueCoeff = KernelWendlandC2(h).valueCoeff;
+        gradientCoeff = KernelWendlandC2(h).gradientCoeff;
+        break;
     }
-    Vec3r acceleration = scalar * gradient;
-    if (viscosityCoeff > 0) {
-      // SEED (6) / rho_i: mu m (v_j - v_i) / (rho_j rho_i) lap W_visc
-      acceleration += (viscosityCoeff * viscosity.laplacianCoeff * diff / (densityJ * densityI)) *
-                      (-relativeVelocity);
-    }
-    return acceleration;
   }
 };
 
+/// W / valueCoeff for r^2 < h^2 (the caller checks the support).
+template <KernelPair K>
+inline Real valueShape(const KernelConstants& k, Real r2) {
+  if constexpr (K == KernelPair::Mueller2003) {
+    const Real d = k.supportRadius2 - r2;  // poly6: (h^2 - r^2)^3
+    return d * d * d;
+  } else if constexpr (K == KernelPair::CubicSpline) {
+    const Real q = std::sqrt(r2) * k.inverseSupport;
+    if (q <= Real(0.5)) return Real(6) * q * q * (q - Real(1)) + Real(1);
+    const Real d = Real(1) - q;
+    return Real(2) * d * d * d;
+  } else {
+    const Real q = std::sqrt(r2) * k.inverseSupport;
+    const Real d = Real(1) - q, d2 = d * d;  // Wendland C2: (1 - q)^4 (1 + 4 q)
+    return d2 * d2 * (Real(1) + Real(4) * q);
+  }
+}
+
+/// grad W / (gradientCoeff r_vec) for 0 < |r| < h.
+template <KernelPair K>
+inline Real gradientShape(const KernelConstants& k, Real len) {
+  if constexpr (K == KernelPair::Mueller2003) {
+    const Real d = k.supportRadius - len;  // spiky, SEED (8): (h - r)^2 / r
+    return d * d / len;
+  } else if constexpr (K == KernelPair::CubicSpline) {
+    const Real q = len * k.inverseSupport;
+    if (q <= Real(0.5)) return (Real(3) * q - Real(2)) * k.inverseSupport;  // q (3q - 2) / r
+    const Real d = Real(1) - q;
+    return -d * d / len;
+  } else {
+    const Real d = Real(1) - len * k.inverseSupport;  // Wendland C2: (1 - q)^3
+    return d * d * d;
+  }
+}
+
+/// The kernel's lattice sums on the cubic lattice of `spacing` around a lattice
+/// point: sum_j W (self included) and -(1/3) sum_j (x_i - x_j) . grad W.
+struct LatticeSums {
+  double value = 0, gradient = 0;
+};
+template <KernelPair K>
+LatticeSums latticeSums(const KernelConstants& k, Real spacing) {
+  const int reach = static_cast<int>(std::ceil(k.supportRadius / spacing));
+  LatticeSums sums;
+  for (int z = -reach; z <= reach; ++z)
+    for (int y = -reach; y <= reach; ++y)
+      for (int x = -reach; x <= reach; ++x) {
+        const Real r2 = spacing * spacing * Real(x * x + y * y + z * z);
+        if (r2 >= k.supportRadius2) continue;
+        sums.value += double(k.valueCoeff * valueShape<K>(k, r2));
+        if (r2 > 0) sums.gradient -= double(r2 * k.gradientCoeff * gradientShape<K>(k, std::sqrt(r2))) / 3.0;
+      }
+  return sums;
+}
+
 /// The constants of the fluid pair loop (SEED (5), (6), Monaghan 1992).
 struct ForceConstants {
-  Real supportRadius, supportRadius2;
-  Real gradientCoeff;    // spiky: -45 / (pi h^6)
+  KernelConstants kernel;
   Real pressureCoeff;    // -m (1 or 1/2) / C
   Real artificialCoeff;  // 2 m alpha h c
   Real epsilon2;         // 0.01 h^2
+  bool hamiltonian;      // p_i / rho_i^2 + p_j / rho_j^2 instead of (p_i + p_j) / (rho_i rho_j)
   bool artificial, viscous;
+  bool allPairs;         // artificial viscosity also for receding pairs
 };
 
 /// The particle whose neighbours are summed (or a mirror pre-image of it).
@@ -93,7 +130,7 @@ struct ForceQuery {
   Real x, y, z, vx, vy, vz, pressure, density, inverseDensity;
 };
 
-/// sum_j f_ij r_ij (pressure and artificial viscosity, SEED (5)) and
+/// sum_j f_ij grad W_ij (pressure and artificial viscosity, SEED (5)) and
 /// sum_j (h - r_ij) / rho_j v_ij (the viscosity sum of SEED (6)).
 struct ForceSums {
   Vec3r pressure = Vec3r::Zero();
@@ -101,43 +138,53 @@ struct ForceSums {
 };
 
 /// One pair, shared by every path: adds j's terms to the sums.
+template <KernelPair K>
 inline void addPairTerms(const ForceConstants& k, const ForceQuery& q, const wcsph::PairInput& pj,
                          ForceSums& sums) {
   const Vec3r r(q.x - pj.x, q.y - pj.y, q.z - pj.z);
   const Real r2 = r.squaredNorm();
-  if (r2 >= k.supportRadius2 || r2 <= Real(0)) return;
+  if (r2 >= k.kernel.supportRadius2 || r2 <= Real(0)) return;
   const Real len = std::sqrt(r2);
-  const Real diff = k.supportRadius - len;
   const Real invRhoj = Real(1) / pj.density;
-  // SEED (5) / rho_i: -m (p_i + p_j) / (rho_i rho_j) grad W_spiky, grad W = -45/(pi h^6) (h - r)^2 r/|r|
-  Real scalar = k.pressureCoeff * (q.pressure + pj.pressure) * q.inverseDensity * invRhoj;
+  // SEED (5) / rho_i: -m (p_i + p_j) / (rho_i rho_j) grad W, or Monaghan 1992:
+  // -m (p_i / rho_i^2 + p_j / rho_j^2) grad W
+  Real scalar = k.hamiltonian ? k.pressureCoeff * (q.pressure * q.inverseDensity * q.inverseDensity +
+                                                   pj.pressure * invRhoj * invRhoj)
+                              : k.pressureCoeff * (q.pressure + pj.pressure) * q.inverseDensity * invRhoj;
   const Vec3r relativeVelocity(q.vx - pj.vx, q.vy - pj.vy, q.vz - pj.vz);
   const Real vr = relativeVelocity.dot(r);
-  if (k.artificial && vr < 0)  // Monaghan 1992
+  if (k.artificial && (vr < 0 || k.allPairs))  // Monaghan 1992
     scalar += k.artificialCoeff * vr / ((q.density + pj.density) * (r2 + k.epsilon2));
-  sums.pressure += (scalar * k.gradientCoeff * diff * diff / len) * r;
-  if (k.viscous) sums.viscous += (diff * invRhoj) * relativeVelocity;
+  sums.pressure += (scalar * k.kernel.gradientCoeff * gradientShape<K>(k.kernel, len)) * r;
+  if (k.viscous) sums.viscous += ((k.kernel.supportRadius - len) * invRhoj) * relativeVelocity;
+}
+
+void addPairTerms(const ForceConstants& k, const ForceQuery& q, const wcsph::PairInput& pj, ForceSums& sums) {
+  switch (k.kernel.pair) {
+    case KernelPair::Mueller2003: return addPairTerms<KernelPair::Mueller2003>(k, q, pj, sums);
+    case KernelPair::CubicSpline: return addPairTerms<KernelPair::CubicSpline>(k, q, pj, sums);
+    case KernelPair::WendlandC2: return addPairTerms<KernelPair::WendlandC2>(k, q, pj, sums);
+  }
 }
 
 /// Sum over neighbours[0 .. count) (scalar).
+template <KernelPair K>
 ForceSums forceSumsScalar(const ForceConstants& k, const wcsph::PairInput* particles, const ForceQuery& q,
                           const std::uint32_t* neighbors, std::uint32_t count) {
   ForceSums sums;
-  for (std::uint32_t n = 0; n < count; ++n) addPairTerms(k, q, particles[neighbors[n]], sums);
+  for (std::uint32_t n = 0; n < count; ++n) addPairTerms<K>(k, q, particles[neighbors[n]], sums);
   return sums;
 }
 
-/// sum_j (h^2 - r_ij^2)^3 over neighbours within h (the poly6 sum of SEED (4), scalar).
-Real poly6SumScalar(const wcsph::PairInput* particles, const Vec3r& q, const std::uint32_t* neighbors,
-                    std::uint32_t count, Real supportRadius2) {
+/// sum_j W_ij / valueCoeff over neighbours within h (the sum of SEED (4), scalar).
+template <KernelPair K>
+Real kernelSumScalar(const KernelConstants& k, const wcsph::PairInput* particles, const Vec3r& q,
+                     const std::uint32_t* neighbors, std::uint32_t count) {
   Real sum = 0;
   for (std::uint32_t n = 0; n < count; ++n) {
     const wcsph::PairInput& pj = particles[neighbors[n]];
     const Real r2 = squaredDistance(q, Vec3r(pj.x, pj.y, pj.z));
-    if (r2 < supportRadius2) {
-      const Real d = supportRadius2 - r2;
-      sum += d * d * d;
-    }
+    if (r2 < k.supportRadius2) sum += valueShape<K>(k, r2);
   }
   return sum;
 }
@@ -197,7 +244,50 @@ CASCADE_WCSPH_TARGET inline void loadPositions(const wcsph::PairInput* particles
   z = _mm256_shuffle_ps(t1, t3, 0x44);
 }
 
+/// gradientShape for eight distances (lanes outside (0, h) give anything; the caller masks them).
+template <KernelPair K>
+CASCADE_WCSPH_TARGET inline __m256 gradientShapeAvx2(const KernelConstants& k, __m256 len) {
+  const __m256 one = _mm256_set1_ps(1.0f);
+  if constexpr (K == KernelPair::Mueller2003) {
+    const __m256 d = _mm256_sub_ps(_mm256_set1_ps(k.supportRadius), len);
+    return _mm256_div_ps(_mm256_mul_ps(d, d), len);
+  } else if constexpr (K == KernelPair::CubicSpline) {
+    const __m256 invH = _mm256_set1_ps(k.inverseSupport);
+    const __m256 q = _mm256_mul_ps(len, invH);
+    const __m256 inner = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(3.0f), q), _mm256_set1_ps(2.0f)), invH);
+    const __m256 d = _mm256_sub_ps(one, q);
+    const __m256 outer = _mm256_div_ps(_mm256_sub_ps(_mm256_setzero_ps(), _mm256_mul_ps(d, d)), len);
+    return _mm256_blendv_ps(outer, inner, _mm256_cmp_ps(q, _mm256_set1_ps(0.5f), _CMP_LE_OQ));
+  } else {
+    const __m256 d = _mm256_sub_ps(one, _mm256_mul_ps(len, _mm256_set1_ps(k.inverseSupport)));
+    return _mm256_mul_ps(_mm256_mul_ps(d, d), d);
+  }
+}
+
+/// valueShape for eight squared distances (lanes outside the support give anything).
+template <KernelPair K>
+CASCADE_WCSPH_TARGET inline __m256 valueShapeAvx2(const KernelConstants& k, __m256 r2) {
+  const __m256 one = _mm256_set1_ps(1.0f);
+  if constexpr (K == KernelPair::Mueller2003) {
+    const __m256 d = _mm256_sub_ps(_mm256_set1_ps(k.supportRadius2), r2);
+    return _mm256_mul_ps(_mm256_mul_ps(d, d), d);
+  } else if constexpr (K == KernelPair::CubicSpline) {
+    const __m256 q = _mm256_mul_ps(_mm256_sqrt_ps(r2), _mm256_set1_ps(k.inverseSupport));
+    const __m256 inner = _mm256_add_ps(
+        _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(6.0f), _mm256_mul_ps(q, q)), _mm256_sub_ps(q, one)), one);
+    const __m256 d = _mm256_sub_ps(one, q);
+    const __m256 outer = _mm256_mul_ps(_mm256_set1_ps(2.0f), _mm256_mul_ps(_mm256_mul_ps(d, d), d));
+    return _mm256_blendv_ps(outer, inner, _mm256_cmp_ps(q, _mm256_set1_ps(0.5f), _CMP_LE_OQ));
+  } else {
+    const __m256 q = _mm256_mul_ps(_mm256_sqrt_ps(r2), _mm256_set1_ps(k.inverseSupport));
+    const __m256 d = _mm256_sub_ps(one, q);
+    const __m256 d2 = _mm256_mul_ps(d, d);
+    return _mm256_mul_ps(_mm256_mul_ps(d2, d2), _mm256_add_ps(one, _mm256_mul_ps(_mm256_set1_ps(4.0f), q)));
+  }
+}
+
 /// forceSumsScalar, eight neighbours at a time (the same terms; sums in another order).
+template <KernelPair K>
 CASCADE_WCSPH_TARGET ForceSums forceSumsAvx2(const ForceConstants& k, const wcsph::PairInput* particles,
                                              const ForceQuery& q, const std::uint32_t* neighbors,
                                              std::uint32_t count) {
@@ -205,8 +295,10 @@ CASCADE_WCSPH_TARGET ForceSums forceSumsAvx2(const ForceConstants& k, const wcsp
   const __m256 qvx = _mm256_set1_ps(q.vx), qvy = _mm256_set1_ps(q.vy), qvz = _mm256_set1_ps(q.vz);
   const __m256 qPressure = _mm256_set1_ps(q.pressure), qDensity = _mm256_set1_ps(q.density);
   const __m256 qInverseDensity = _mm256_set1_ps(q.inverseDensity);
-  const __m256 h = _mm256_set1_ps(k.supportRadius), h2 = _mm256_set1_ps(k.supportRadius2);
-  const __m256 pressureCoeff = _mm256_set1_ps(k.pressureCoeff), gradientCoeff = _mm256_set1_ps(k.gradientCoeff);
+  const __m256 qPressureTerm = _mm256_set1_ps(q.pressure * q.inverseDensity * q.inverseDensity);
+  const __m256 h = _mm256_set1_ps(k.kernel.supportRadius), h2 = _mm256_set1_ps(k.kernel.supportRadius2);
+  const __m256 pressureCoeff = _mm256_set1_ps(k.pressureCoeff);
+  const __m256 gradientCoeff = _mm256_set1_ps(k.kernel.gradientCoeff);
   const __m256 artificialCoeff = _mm256_set1_ps(k.artificialCoeff), epsilon2 = _mm256_set1_ps(k.epsilon2);
   const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
   __m256 ax = zero, ay = zero, az = zero, vx = zero, vy = zero, vz = zero;
@@ -221,25 +313,29 @@ CASCADE_WCSPH_TARGET ForceSums forceSumsAvx2(const ForceConstants& k, const wcsp
     // Mirror images are mostly farther than h: skip blocks with none within.
     if (_mm256_testz_ps(valid, valid)) continue;
     const __m256 len = _mm256_sqrt_ps(r2);
-    const __m256 diff = _mm256_sub_ps(h, len);
     const __m256 invRhoj = _mm256_div_ps(one, f[7]);
-    __m256 scalar = _mm256_mul_ps(
-        _mm256_mul_ps(_mm256_mul_ps(pressureCoeff, _mm256_add_ps(qPressure, f[3])), qInverseDensity), invRhoj);
+    __m256 scalar =
+        k.hamiltonian
+            ? _mm256_mul_ps(pressureCoeff,
+                            _mm256_add_ps(qPressureTerm, _mm256_mul_ps(_mm256_mul_ps(f[3], invRhoj), invRhoj)))
+            : _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(pressureCoeff, _mm256_add_ps(qPressure, f[3])),
+                                          qInverseDensity),
+                            invRhoj);
     const __m256 rvx = _mm256_sub_ps(qvx, f[4]), rvy = _mm256_sub_ps(qvy, f[5]), rvz = _mm256_sub_ps(qvz, f[6]);
     if (k.artificial) {
       const __m256 vr =
           _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(rvx, rx), _mm256_mul_ps(rvy, ry)), _mm256_mul_ps(rvz, rz));
       const __m256 term = _mm256_div_ps(_mm256_mul_ps(artificialCoeff, vr),
                                         _mm256_mul_ps(_mm256_add_ps(qDensity, f[7]), _mm256_add_ps(r2, epsilon2)));
-      scalar = _mm256_add_ps(scalar, _mm256_and_ps(term, _mm256_cmp_ps(vr, zero, _CMP_LT_OQ)));
+      scalar = _mm256_add_ps(scalar, k.allPairs ? term : _mm256_and_ps(term, _mm256_cmp_ps(vr, zero, _CMP_LT_OQ)));
     }
     const __m256 factor = _mm256_and_ps(
-        _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(scalar, gradientCoeff), diff), diff), len), valid);
+        _mm256_mul_ps(_mm256_mul_ps(scalar, gradientCoeff), gradientShapeAvx2<K>(k.kernel, len)), valid);
     ax = _mm256_add_ps(ax, _mm256_mul_ps(factor, rx));
     ay = _mm256_add_ps(ay, _mm256_mul_ps(factor, ry));
     az = _mm256_add_ps(az, _mm256_mul_ps(factor, rz));
     if (k.viscous) {
-      const __m256 weight = _mm256_and_ps(_mm256_mul_ps(diff, invRhoj), valid);
+      const __m256 weight = _mm256_and_ps(_mm256_mul_ps(_mm256_sub_ps(h, len), invRhoj), valid);
       vx = _mm256_add_ps(vx, _mm256_mul_ps(weight, rvx));
       vy = _mm256_add_ps(vy, _mm256_mul_ps(weight, rvy));
       vz = _mm256_add_ps(vz, _mm256_mul_ps(weight, rvz));
@@ -251,11 +347,12 @@ CASCADE_WCSPH_TARGET ForceSums forceSumsAvx2(const ForceConstants& k, const wcsp
   return sums;
 }
 
-/// poly6SumScalar, eight neighbours at a time.
-CASCADE_WCSPH_TARGET Real poly6SumAvx2(const wcsph::PairInput* particles, const Vec3r& q,
-                                       const std::uint32_t* neighbors, std::uint32_t count, Real supportRadius2) {
+/// kernelSumScalar, eight neighbours at a time.
+template <KernelPair K>
+CASCADE_WCSPH_TARGET Real kernelSumAvx2(const KernelConstants& k, const wcsph::PairInput* particles, const Vec3r& q,
+                                        const std::uint32_t* neighbors, std::uint32_t count) {
   const __m256 qx = _mm256_set1_ps(q.x()), qy = _mm256_set1_ps(q.y()), qz = _mm256_set1_ps(q.z());
-  const __m256 h2 = _mm256_set1_ps(supportRadius2);
+  const __m256 h2 = _mm256_set1_ps(k.supportRadius2);
   __m256 sum = _mm256_setzero_ps();
   for (std::uint32_t first = 0; first < count; first += 8) {
     const std::uint32_t lanes = std::min<std::uint32_t>(8, count - first);
@@ -265,8 +362,7 @@ CASCADE_WCSPH_TARGET Real poly6SumAvx2(const wcsph::PairInput* particles, const 
     const __m256 r2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
     __m256 within = _mm256_cmp_ps(r2, h2, _CMP_LT_OQ);
     if (lanes < 8) within = _mm256_and_ps(within, laneMask(lanes));
-    const __m256 d = _mm256_and_ps(_mm256_sub_ps(h2, r2), within);
-    sum = _mm256_add_ps(sum, _mm256_mul_ps(_mm256_mul_ps(d, d), d));
+    sum = _mm256_add_ps(sum, _mm256_and_ps(valueShapeAvx2<K>(k, r2), within));
   }
   return horizontalSum(sum);
 }
@@ -277,34 +373,110 @@ bool wcsphUsesAvx2() {
 }
 #endif
 
+template <KernelPair K>
 ForceSums forceSums(const ForceConstants& k, const wcsph::PairInput* particles, const ForceQuery& q,
                     const std::uint32_t* neighbors, std::uint32_t count) {
 #ifdef CASCADE_WCSPH_AVX2
-  if (wcsphUsesAvx2()) return forceSumsAvx2(k, particles, q, neighbors, count);
+  if (wcsphUsesAvx2()) return forceSumsAvx2<K>(k, particles, q, neighbors, count);
 #endif
-  return forceSumsScalar(k, particles, q, neighbors, count);
+  return forceSumsScalar<K>(k, particles, q, neighbors, count);
 }
 
-Real poly6Sum(const wcsph::PairInput* particles, const Vec3r& q, const std::uint32_t* neighbors,
-              std::uint32_t count, Real supportRadius2) {
+ForceSums forceSums(const ForceConstants& k, const wcsph::PairInput* particles, const ForceQuery& q,
+                    const std::uint32_t* neighbors, std::uint32_t count) {
+  switch (k.kernel.pair) {
+    case KernelPair::Mueller2003: return forceSums<KernelPair::Mueller2003>(k, particles, q, neighbors, count);
+    case KernelPair::CubicSpline: return forceSums<KernelPair::CubicSpline>(k, particles, q, neighbors, count);
+    case KernelPair::WendlandC2: return forceSums<KernelPair::WendlandC2>(k, particles, q, neighbors, count);
+  }
+  return {};
+}
+
+template <KernelPair K>
+Real kernelSum(const KernelConstants& k, const wcsph::PairInput* particles, const Vec3r& q,
+               const std::uint32_t* neighbors, std::uint32_t count) {
 #ifdef CASCADE_WCSPH_AVX2
-  if (wcsphUsesAvx2()) return poly6SumAvx2(particles, q, neighbors, count, supportRadius2);
+  if (wcsphUsesAvx2()) return kernelSumAvx2<K>(k, particles, q, neighbors, count);
 #endif
-  return poly6SumScalar(particles, q, neighbors, count, supportRadius2);
+  return kernelSumScalar<K>(k, particles, q, neighbors, count);
 }
 
-ForceConstants forceConstants(const StepContext& c) {
-  const PairTerms terms(c);
+/// sum_j W_ij / valueCoeff over neighbours[0 .. count) within h of q.
+Real kernelSum(const KernelConstants& k, const wcsph::PairInput* particles, const Vec3r& q,
+               const std::uint32_t* neighbors, std::uint32_t count) {
+  switch (k.pair) {
+    case KernelPair::Mueller2003: return kernelSum<KernelPair::Mueller2003>(k, particles, q, neighbors, count);
+    case KernelPair::CubicSpline: return kernelSum<KernelPair::CubicSpline>(k, particles, q, neighbors, count);
+    case KernelPair::WendlandC2: return kernelSum<KernelPair::WendlandC2>(k, particles, q, neighbors, count);
+  }
+  return 0;
+}
+
+/// W / valueCoeff of one pair within h.
+Real valueShape(const KernelConstants& k, Real r2) {
+  switch (k.pair) {
+    case KernelPair::Mueller2003: return valueShape<KernelPair::Mueller2003>(k, r2);
+    case KernelPair::CubicSpline: return valueShape<KernelPair::CubicSpline>(k, r2);
+    case KernelPair::WendlandC2: return valueShape<KernelPair::WendlandC2>(k, r2);
+  }
+  return 0;
+}
+
+/// The kernel pair with its lattice normalisation (cached in the workspace):
+/// the density scale makes the rest lattice of the fluid spacing exactly rho_0
+/// (the SEED pair: the particle mass, derived from poly6 the same way), and the
+/// gradient correction 1 / C of DerivedConstants for the chosen gradient.
+const wcsph::KernelNormalisation& kernelNormalisation(const StepContext& c, wcsph::Workspace& workspace) {
+  wcsph::KernelNormalisation& n = workspace.normalisation;
+  const KernelPair pair = c.settings.solver.kernels;
+  const Real h = c.constants.supportRadius, spacing = c.settings.fluid.spacing;
+  if (n.valid && n.pair == pair && n.supportRadius == h && n.spacing == spacing &&
+      n.particleMass == c.constants.particleMass)
+    return n;
+  n.pair = pair;
+  n.supportRadius = h;
+  n.spacing = spacing;
+  n.particleMass = c.constants.particleMass;
+  const KernelConstants k(pair, h);
+  if (pair == KernelPair::Mueller2003) {
+    n.densityScale = c.constants.particleMass;  // rho_0 / sum poly6 (Simulation)
+    n.gradientCorrection = c.constants.gradientCorrection;
+  } else {
+    LatticeSums sums;
+    if (pair == KernelPair::CubicSpline) sums = latticeSums<KernelPair::CubicSpline>(k, spacing);
+    else sums = latticeSums<KernelPair::WendlandC2>(k, spacing);
+    n.densityScale = static_cast<Real>(double(c.settings.fluid.restDensity) / sums.value);
+    // C with V = m / rho_0 (the force uses the particle mass m): m / C is then
+    // rho_0 / (-(1/3) sum_j (x_i - x_j) . grad W), independent of m.
+    n.gradientCorrection = static_cast<Real>(
+        1.0 / (sums.gradient * double(c.constants.particleMass) / double(c.settings.fluid.restDensity)));
+  }
+  n.valid = true;
+  return n;
+}
+
+ForceConstants forceConstants(const StepContext& c, const wcsph::Workspace& workspace) {
+  const SolverSettings& solver = c.settings.solver;
+  const Real h = c.constants.supportRadius;
   ForceConstants k;
-  k.supportRadius = terms.spiky.supportRadius;
-  k.supportRadius2 = terms.supportRadius2;
-  k.gradientCoeff = terms.spiky.gradientCoeff;
-  k.pressureCoeff = -terms.mass * terms.pressureFactor;
-  k.artificialCoeff = Real(2) * terms.mass * terms.artificialCoeff;
-  k.epsilon2 = terms.epsilon2;
-  k.artificial = terms.artificialCoeff > 0;
-  k.viscous = terms.viscosityCoeff > 0;
+  k.kernel = KernelConstants(solver.kernels, h);
+  const Real halved = solver.pressureForce == PressureForce::MuellerHalf ? Real(0.5) : Real(1);
+  k.pressureCoeff = -c.constants.particleMass * halved * workspace.normalisation.gradientCorrection;
+  // Monaghan 1992: Pi_ij = -alpha h c (v_ij . r_ij) / (rho_avg (r^2 + 0.01 h^2)), times -m.
+  const Real alpha = solver.artificialViscosity * h * c.constants.speedOfSound;
+  k.artificialCoeff = Real(2) * c.constants.particleMass * alpha;
+  k.epsilon2 = Real(0.01) * h * h;
+  k.hamiltonian = solver.pressureForce == PressureForce::Hamiltonian;
+  k.artificial = alpha > 0;
+  k.viscous = c.settings.fluid.viscosity > 0;
+  k.allPairs = solver.artificialViscosityAllPairs;
   return k;
+}
+
+/// mu m lap W_visc / (h - r) of SEED (6), (9): the viscosity sum's factor.
+Real viscosityFactor(const StepContext& c) {
+  return c.settings.fluid.viscosity * c.constants.particleMass *
+         KernelViscosity(c.constants.supportRadius).laplacianCoeff;
 }
 
 /// Whether `linear` is orthogonal (a reflection or a product of them), so the
@@ -334,15 +506,14 @@ void computeFluidDensity(StepContext& c, Workspace& workspace) {
       records[i].vz = v.z();
     }
   });
-  const KernelPoly6 poly6(c.constants.supportRadius);
-  const Real mass = c.constants.particleMass;
-  const Real self = poly6.valueFromSquared(0);
-  const Real h2 = c.constants.supportRadius * c.constants.supportRadius;
+  const KernelConstants kernel(c.settings.solver.kernels, c.constants.supportRadius);
+  const Real scale = kernelNormalisation(c, workspace).densityScale;
+  const Real self = valueShape(kernel, 0);
   const NeighborLists& nl = c.neighbors;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const Real sum = poly6Sum(records, particles.position[i], nl.begin(i), nl.count(i), h2);
-      particles.density[i] = mass * (self + poly6.valueCoeff * sum);  // SEED (4)
+      const Real sum = kernelSum(kernel, records, particles.position[i], nl.begin(i), nl.count(i));
+      particles.density[i] = scale * kernel.valueCoeff * (self + sum);  // SEED (4)
     }
   });
 }
@@ -351,9 +522,9 @@ void addMirrorDensity(StepContext& c, const Workspace& workspace) {
   const BoundaryParticles& boundary = c.boundary;
   if (boundary.mirrors().empty()) return;
   Particles& particles = c.particles;
-  const KernelPoly6 poly6(c.constants.supportRadius);
-  const Real mass = c.constants.particleMass;
-  const Real h2 = c.constants.supportRadius * c.constants.supportRadius;
+  const KernelConstants kernel(c.settings.solver.kernels, c.constants.supportRadius);
+  const Real scale = workspace.normalisation.densityScale;
+  const Real h2 = kernel.supportRadius2;
   const NeighborLists& nl = c.neighbors;
   const PairInput* records = workspace.particles.data();
   const std::vector<std::uint32_t>& layer = boundary.layer();
@@ -361,12 +532,9 @@ void addMirrorDensity(StepContext& c, const Workspace& workspace) {
     for (std::size_t k = range.begin(); k != range.end(); ++k) {
       const std::uint32_t i = layer[k];
       const Vec3r xi = particles.position[i];
-      Real sum = 0;  // of (h^2 - r^2)^3
+      Real sum = 0;  // of W / valueCoeff
       auto add = [&](Real r2) {
-        if (r2 < h2) {
-          const Real d = h2 - r2;
-          sum += d * d * d;
-        }
+        if (r2 < h2) sum += valueShape(kernel, r2);
       };
       for (std::uint32_t m = boundary.mirrorOffsets()[i]; m < boundary.mirrorOffsets()[i + 1]; ++m) {
         const MirrorMap& map = boundary.mirrors()[m];
@@ -375,13 +543,13 @@ void addMirrorDensity(StepContext& c, const Workspace& workspace) {
         if (isOrthogonal(map.linear)) {
           // |x_i - (M x_j + o)| = |M^T (x_i - o) - x_j|: the fluid sum around i's pre-image.
           const Vec3r preImage = map.linear.transpose() * (xi - map.offset);
-          sum += poly6Sum(records, preImage, nl.begin(i), nl.count(i), h2);
+          sum += kernelSum(kernel, records, preImage, nl.begin(i), nl.count(i));
         } else {
           for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j)
             add(squaredDistance(xi, map.apply(particles.position[*j])));
         }
       }
-      particles.density[i] += mass * poly6.valueCoeff * sum;
+      particles.density[i] += scale * kernel.valueCoeff * sum;
     }
   });
 }
@@ -395,9 +563,18 @@ void computePressure(StepContext& c, Workspace& workspace) {
   model.clampNegative = c.settings.solver.clampNegativePressure;
   Particles& particles = c.particles;
   PairInput* records = workspace.particles.data();
+  // Surface layer (SolverSettings::surfaceLayerPressure): p >= rho_0 |g| s / 2 for
+  // particles of a water body (rho >= 0.8 rho_0), not for spray.
+  const bool surfaceLayer = c.settings.solver.surfaceLayerPressure && model.clampNegative;
+  const Real surfacePressure = surfaceLayer ? Real(0.5) * c.settings.fluid.restDensity *
+                                                  c.settings.solver.gravity.norm() * c.settings.fluid.spacing
+                                            : Real(0);
+  const Real bodyDensity = Real(kSurfaceLayerDensity) * c.settings.fluid.restDensity;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles.size(), 2048), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       particles.pressure[i] = model(particles.density[i]);
+      if (surfaceLayer && particles.density[i] >= bodyDensity)
+        particles.pressure[i] = std::max(particles.pressure[i], surfacePressure);
       records[i].pressure = particles.pressure[i];
       records[i].density = particles.density[i];
     }
@@ -406,9 +583,8 @@ void computePressure(StepContext& c, Workspace& workspace) {
 
 void computeFluidAcceleration(StepContext& c, const Workspace& workspace) {
   const Particles& particles = c.particles;
-  const ForceConstants k = forceConstants(c);
-  const PairTerms terms(c);
-  const Real viscosityCoeff = terms.viscosityCoeff * terms.viscosity.laplacianCoeff;
+  const ForceConstants k = forceConstants(c, workspace);
+  const Real viscosityCoeff = viscosityFactor(c);
   const NeighborLists& nl = c.neighbors;
   const Vec3r gravity = c.settings.solver.gravity;
   std::vector<Vec3r>& acceleration = c.acceleration;
@@ -434,9 +610,8 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
   const std::size_t boundaryCount = c.obstacleForce.size();
   std::fill(c.obstacleForce.begin(), c.obstacleForce.end(), Vec3d::Zero());
   if (layer.empty()) return;
-  const PairTerms terms(c);
-  const ForceConstants k = forceConstants(c);
-  const Real viscosityCoeff = terms.viscosityCoeff * terms.viscosity.laplacianCoeff;
+  const ForceConstants k = forceConstants(c, workspace);
+  const Real viscosityCoeff = viscosityFactor(c);
   const PairInput* records = workspace.particles.data();
   const NeighborLists& nl = c.neighbors;
   const bool noSlip = c.settings.boundary.slip == MirrorSlip::NoSlip;
@@ -484,16 +659,22 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
           addPairTerms(k, q, records[self], sums);
           a = map.linear * (sums.pressure - (viscosityCoeff * invRhoi) * sums.viscous);
         } else {
+          // The mirror images themselves: position M x_j + o, velocity -v_j
+          // (no slip) or M v_j (free slip), j's pressure and density.
+          const Real invRhoi = Real(1) / rhoi;
+          const ForceQuery q{xi.x(), xi.y(), xi.z(), vi.x(), vi.y(), vi.z(), pi, rhoi, invRhoi};
+          ForceSums sums;
           auto visit = [&](std::uint32_t j) {
-            const Vec3r r = xi - map.apply(particles.position[j]);
-            const Real r2 = r.squaredNorm();
-            if (r2 >= terms.supportRadius2 || r2 <= Real(0)) return;
+            const Vec3r x = map.apply(particles.position[j]);
             const Vec3r& vj = particles.velocity[j];
-            const Vec3r mirroredVelocity = noSlip ? Vec3r(-vj) : Vec3r(map.linear * vj);
-            a += terms(r, r2, pi, rhoi, vi, particles.pressure[j], particles.density[j], mirroredVelocity);
+            const Vec3r v = noSlip ? Vec3r(-vj) : Vec3r(map.linear * vj);
+            const PairInput image{x.x(), x.y(), x.z(), particles.pressure[j],
+                                  v.x(), v.y(), v.z(), particles.density[j]};
+            addPairTerms(k, q, image, sums);
           };
           visit(i);
           for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j) visit(*j);
+          a = sums.pressure - (viscosityCoeff * invRhoi) * sums.viscous;
         }
         total += a;
         if (map.boundary < boundaryCount) force[map.boundary] -= (mass * a).cast<double>();

@@ -1,13 +1,19 @@
 /// @file TimeStepWCSPH.h
 /// @brief The SEED's weakly compressible SPH step (Mueller et al. 2003 with
 ///        the SEED's corrections):
-///        density SEED (4) with poly6 (7); pressure from SEED (10) or Tait;
-///        pressure force SEED (5) with the spiky gradient (8), symmetric
-///        (p_i + p_j) (without the printed 1/2, which halves grad p in the bulk;
-///        SolverSettings::pressureForce selects the literal form); viscosity SEED (6) with the viscosity Laplacian (9);
+///        density SEED (4); pressure from SEED (10) or Tait; pressure force
+///        SEED (5); viscosity SEED (6) with the viscosity Laplacian (9);
 ///        optional Monaghan (1992) artificial viscosity; gravity and the
 ///        boundary forces (SEED (15)): type I repulsion SEED (11) and type II
 ///        mirror particles; symplectic Euler SEED (12)-(14).
+///        SolverSettings select the kernel pair of density and pressure
+///        gradient (the SEED's poly6 (7) / spiky (8), or one kernel for both:
+///        cubic spline, Monaghan 1992; Wendland C2, Wendland 1995, the
+///        default) and the pressure force (-m (p_i + p_j) / (rho_i rho_j) grad W;
+///        the printed SEED (5) with 1/2; the Hamiltonian
+///        -m (p_i / rho_i^2 + p_j / rho_j^2) grad W of Monaghan 1992, the default).
+///        Each pair's density is scaled so that the rest lattice of the fluid
+///        spacing has rho_0, and its gradient corrected by 1 / C (DerivedConstants).
 ///
 /// Every pass is a TBB loop over the contiguous particle arrays, reading the
 /// step's neighbour lists; the boundary passes only visit the boundary layer.
@@ -32,9 +38,22 @@ struct alignas(32) PairInput {
   Real x, y, z, pressure;
   Real vx, vy, vz, density;
 };
+/// The density scale and gradient correction of the kernel pair on the rest
+/// lattice (SolverSettings::kernels), derived once.
+struct KernelNormalisation {
+  bool valid = false;
+  KernelPair pair = KernelPair::Mueller2003;
+  Real supportRadius = 0, spacing = 0, particleMass = 0;  // what it was derived for
+  /// rho_i = densityScale sum_j W_ij: rho_0 / (sum of W over the rest lattice),
+  /// the particle mass for the SEED pair.
+  Real densityScale = 0;
+  /// 1 / C, C = -(1/3) sum_j m / rho_0 (x_i - x_j) . grad W_ij over the rest lattice.
+  Real gradientCorrection = 1;
+};
 /// Scratch the passes keep between steps.
 struct Workspace {
   std::vector<PairInput> particles;
+  KernelNormalisation normalisation;
 };
 } // namespace wcsph
 

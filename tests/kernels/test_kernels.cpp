@@ -1,5 +1,7 @@
-// The SEED kernels (Mueller 2003 eqs. 20-22; SEED (7)-(9)): normalised,
-// compactly supported, with analytic derivatives that match finite differences.
+// The SEED kernels (Mueller 2003 eqs. 20-22; SEED (7)-(9)) and the kernels used
+// for density and gradient alike (cubic spline, Monaghan 1992; Wendland C2,
+// Wendland 1995): normalised, compactly supported, with analytic derivatives
+// that match finite differences.
 #include "libsph/Kernels.h"
 
 #include <gtest/gtest.h>
@@ -151,6 +153,59 @@ TEST(Kernels, LaplaciansMatchFiniteDifferences) {
       // SEED (9): 45/(pi h^6) (h - r).
       EXPECT_NEAR(viscosity.laplacian(Real(r)), 45 / (kPiD * std::pow(h, 6.0)) * (h - r),
                   1e-5 * 45 / (kPiD * std::pow(h, 5.0)));
+    }
+  }
+}
+
+TEST(Kernels, CubicSplineAndWendlandC2IntegrateToOne) {
+  for (const Real h : kSupports) {
+    const KernelCubicSpline cubic(h);
+    const KernelWendlandC2 wendland(h);
+    EXPECT_NEAR(radialIntegral([&](Real r) { return cubic.value(r); }, h), 1.0, 1e-3) << h;
+    EXPECT_NEAR(cartesianIntegral([&](Real r) { return cubic.value(r); }, h), 1.0, 1e-3) << h;
+    EXPECT_NEAR(radialIntegral([&](Real r) { return wendland.value(r); }, h), 1.0, 1e-3) << h;
+    EXPECT_NEAR(cartesianIntegral([&](Real r) { return wendland.value(r); }, h), 1.0, 1e-3) << h;
+  }
+}
+
+TEST(Kernels, WendlandC2MatchesDehnenAly) {
+  // Dehnen & Aly 2012, table 1 (3-D): W(0) = 21 / (2 pi h^3); W(h/2) = W(0) (1/2)^4 3.
+  for (const Real h : kSupports) {
+    const KernelWendlandC2 kernel(h);
+    const double w0 = 21 / (2 * kPiD * std::pow(double(h), 3.0));
+    EXPECT_NEAR(kernel.value(0), w0, 1e-5 * w0);
+    EXPECT_NEAR(kernel.value(h / 2), w0 * 3 / 16, 1e-5 * w0);
+    for (const Real r : {h, Real(1.0001f) * h, 3 * h}) {
+      EXPECT_EQ(kernel.value(r), 0);
+      EXPECT_EQ(kernel.gradient(Vec3r(r, 0, 0)), Vec3r::Zero());
+    }
+    EXPECT_EQ(kernel.gradient(Vec3r::Zero()), Vec3r::Zero());
+  }
+}
+
+TEST(Kernels, CubicSplineAndWendlandC2GradientsMatchFiniteDifferences) {
+  std::mt19937 rng(5);
+  for (const Real h : kSupports) {
+    const KernelCubicSpline cubic(h);
+    const KernelWendlandC2 wendland(h);
+    std::uniform_real_distribution<Real> u(-h, h);
+    int tested = 0;
+    while (tested < 200) {
+      const Vec3r r(u(rng), u(rng), u(rng));
+      const double len = r.cast<double>().norm();
+      if (len < 0.05 * h || len > 0.95 * h || std::abs(len - 0.5 * h) < 0.01 * h) continue;
+      ++tested;
+      const Vec3r g[2] = {cubic.gradient(r), wendland.gradient(r)};
+      EXPECT_EQ(cubic.gradient(-r), -g[0]);
+      EXPECT_EQ(wendland.gradient(-r), -g[1]);
+      const double step = 1e-3 * h;
+      const double dW[2] = {radialDerivative([&](Real s) { return cubic.value(s); }, len, step),
+                            radialDerivative([&](Real s) { return wendland.value(s); }, len, step)};
+      const double scale = 50 / (kPiD * std::pow(double(h), 4.0));
+      for (int k = 0; k < 2; ++k) {
+        const Eigen::Vector3d expected = dW[k] * r.cast<double>() / len;
+        EXPECT_LT((g[k].cast<double>() - expected).norm(), 2e-3 * scale) << "kernel " << k << " h " << h << " r " << len;
+      }
     }
   }
 }

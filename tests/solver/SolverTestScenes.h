@@ -39,9 +39,9 @@ inline std::unique_ptr<Simulation> makeDamBreak(const SimulationSettings& settin
 }
 
 /// A resting water column side x side x height (spacing `spacing`) in a tank
-/// twice as tall, default solver settings.
-inline std::unique_ptr<Simulation> makeRestingTank(double side, double height, double spacing) {
-  SimulationSettings settings;
+/// twice as tall, the given (by default the default) solver settings.
+inline std::unique_ptr<Simulation> makeRestingTank(double side, double height, double spacing,
+                                                   SimulationSettings settings = {}) {
   settings.fluid.spacing = Real(spacing);
   auto sim = std::make_unique<Simulation>(settings);
   sim->addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(Real(side), Real(side), Real(2 * height))));
