@@ -3,6 +3,7 @@
 #include "surfacing/detail/LeafNeighborhoods.h"
 #include "surfacing/detail/Profile.h"
 
+#include <Eigen/Core>
 #include <openvdb/tools/LevelSetFilter.h>
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tree/LeafManager.h>
@@ -22,79 +23,92 @@ using detail::LeafNeighborhoods;
 constexpr int D = detail::kLeafDim;
 constexpr int P = detail::kPaddedDim;
 
-inline float sq(float value) { return value * value; }
+using openvdb::Index;
 
 /// One step of mean curvature flow on the active voxels: phi += dt kappa |grad phi|,
 /// dt = dx^2 / 3 (OpenVDB LevelSetFilter's step); kappa |grad phi| as OpenVDB's
 /// CurvatureStencil::meanCurvatureNormGrad (index-space differences, so with
 /// dt the update is alpha / (6 |grad phi|^2)).
-void meanCurvatureStep(const LeafNeighborhoods& band, const std::vector<LeafT*>& leaves) {
-  band.apply(leaves, [&](std::size_t i, const float (&f)[P][P][P], float* out) {
-    const LeafT& leaf = *band.leaves[i];
+using Row = Eigen::Array<float, D, 1>;  // one row of a leaf along z (Eigen: SIMD packets)
+using RowMap = Eigen::Map<const Row>;
+
+void meanCurvatureStep(const LeafNeighborhoods& band, const std::vector<LeafT*>& leaves,
+                       std::vector<LeafT::Buffer>& scratch) {
+  band.apply(leaves, scratch, [&](std::size_t i, const float (&f)[P][P][P], float* out) {
+    const LeafT::NodeMaskType& mask = band.leaves[i]->valueMask();
     for (int x = 1; x <= D; ++x)
-      for (int y = 1; y <= D; ++y)
-        for (int z = 1; z <= D; ++z) {
-          const int offset = ((x - 1) << 6) | ((y - 1) << 3) | (z - 1);
-          const float phi = f[x][y][z];
-          out[offset] = phi;
-          if (!leaf.valueMask().isOn(offset)) continue;
-          const float Dx = 0.5f * (f[x + 1][y][z] - f[x - 1][y][z]);
-          const float Dy = 0.5f * (f[x][y + 1][z] - f[x][y - 1][z]);
-          const float Dz = 0.5f * (f[x][y][z + 1] - f[x][y][z - 1]);
-          const float Dx2 = Dx * Dx, Dy2 = Dy * Dy, Dz2 = Dz * Dz, normGrad2 = Dx2 + Dy2 + Dz2;
-          if (normGrad2 <= 1e-8f * 1e-8f) continue;  // OpenVDB: Tolerance<double>
-          const float Dxx = f[x + 1][y][z] - 2 * phi + f[x - 1][y][z];
-          const float Dyy = f[x][y + 1][z] - 2 * phi + f[x][y - 1][z];
-          const float Dzz = f[x][y][z + 1] - 2 * phi + f[x][y][z - 1];
-          const float Dxy = 0.25f * (f[x + 1][y + 1][z] - f[x - 1][y + 1][z] - f[x + 1][y - 1][z] + f[x - 1][y - 1][z]);
-          const float Dxz = 0.25f * (f[x + 1][y][z + 1] - f[x - 1][y][z + 1] - f[x + 1][y][z - 1] + f[x - 1][y][z - 1]);
-          const float Dyz = 0.25f * (f[x][y + 1][z + 1] - f[x][y - 1][z + 1] - f[x][y + 1][z - 1] + f[x][y - 1][z - 1]);
-          const float alpha = Dx2 * (Dyy + Dzz) + Dy2 * (Dxx + Dzz) + Dz2 * (Dxx + Dyy) -
-                              2 * (Dx * (Dy * Dxy + Dz * Dxz) + Dy * Dz * Dyz);
-          out[offset] = phi + alpha / (6 * normGrad2);
-        }
+      for (int y = 1; y <= D; ++y) {
+        // Inactive voxels keep their value.
+        const RowMap c(&f[x][y][1]), zm(&f[x][y][0]), zp(&f[x][y][2]);
+        const RowMap xm(&f[x - 1][y][1]), xp(&f[x + 1][y][1]), ym(&f[x][y - 1][1]), yp(&f[x][y + 1][1]);
+        const RowMap xmzm(&f[x - 1][y][0]), xmzp(&f[x - 1][y][2]), xpzm(&f[x + 1][y][0]), xpzp(&f[x + 1][y][2]);
+        const RowMap ymzm(&f[x][y - 1][0]), ymzp(&f[x][y - 1][2]), ypzm(&f[x][y + 1][0]), ypzp(&f[x][y + 1][2]);
+        const RowMap xmym(&f[x - 1][y - 1][1]), xmyp(&f[x - 1][y + 1][1]), xpym(&f[x + 1][y - 1][1]),
+            xpyp(&f[x + 1][y + 1][1]);
+        const Row Dx = 0.5f * (xp - xm), Dy = 0.5f * (yp - ym), Dz = 0.5f * (zp - zm);
+        const Row Dx2 = Dx.square(), Dy2 = Dy.square(), Dz2 = Dz.square(), normGrad2 = Dx2 + Dy2 + Dz2;
+        const Row Dxx = xp - 2 * c + xm, Dyy = yp - 2 * c + ym, Dzz = zp - 2 * c + zm;
+        const Row Dxy = 0.25f * (xpyp - xmyp - xpym + xmym);
+        const Row Dxz = 0.25f * (xpzp - xmzp - xpzm + xmzm);
+        const Row Dyz = 0.25f * (ypzp - ymzp - ypzm + ymzm);
+        const Row alpha = Dx2 * (Dyy + Dzz) + Dy2 * (Dxx + Dzz) + Dz2 * (Dxx + Dyy) -
+                          2 * (Dx * (Dy * Dxy + Dz * Dxz) + Dy * Dz * Dyz);
+        const auto flat = normGrad2 <= 1e-16f;  // OpenVDB: no update below Tolerance<double>
+        const Row updated = flat.select(c, c + alpha / (6 * flat.select(Row::Ones(), normGrad2)));
+        const unsigned rowBits = unsigned(mask.getWord<std::uint64_t>(Index(x - 1)) >> ((y - 1) << 3)) & 0xffu;
+        float* o = out + (((x - 1) << 6) | ((y - 1) << 3));
+        for (int z = 0; z < D; ++z) o[z] = (rowBits >> z) & 1u ? updated[z] : c[z];
+      }
   });
 }
 
 /// One renormalisation step (Sussman, Smereka & Osher 1994) on the band dilated by
 /// one voxel, then the band trimmed to |phi| < background: inactive voxels hold
 /// +-background.
-void renormalizeStep(const LeafNeighborhoods& band, const std::vector<LeafT*>& leaves, float background,
-                     float voxelSize) {
+void renormalizeStep(const LeafNeighborhoods& band, const std::vector<LeafT*>& leaves,
+                     std::vector<LeafT::Buffer>& scratch, float background, float voxelSize) {
   const float dt = 0.3f * voxelSize, inverseDx = 1.0f / voxelSize;
-  band.apply(leaves, [&](std::size_t i, const float (&f)[P][P][P], float* out) {
-    LeafT& leaf = *leaves[i];
+  band.apply(leaves, scratch, [&](std::size_t i, const float (&f)[P][P][P], float* out) {
+    LeafT::NodeMaskType mask;
     for (int x = 1; x <= D; ++x)
-      for (int y = 1; y <= D; ++y)
-        for (int z = 1; z <= D; ++z) {
-          const int offset = ((x - 1) << 6) | ((y - 1) << 3) | (z - 1);
-          const float phi = f[x][y][z];
-          const float xm = f[x - 1][y][z], xp = f[x + 1][y][z], ym = f[x][y - 1][z], yp = f[x][y + 1][z],
-                      zm = f[x][y][z - 1], zp = f[x][y][z + 1];
-          const bool inBand =
-              std::min({std::abs(phi), std::abs(xm), std::abs(xp), std::abs(ym), std::abs(yp), std::abs(zm),
-                        std::abs(zp)}) < background;  // active, or a face neighbour of an active voxel
-          float value = phi > 0 ? background : -background;
-          if (inBand) {
-            // Godunov's upwind |grad phi|^2, first-order one-sided differences (index space).
-            const float dxm = phi - xm, dxp = xp - phi, dym = phi - ym, dyp = yp - phi, dzm = phi - zm,
-                        dzp = zp - phi;
-            float norm2;
-            if (phi > 0)
-              norm2 = std::max(sq(std::max(dxm, 0.0f)), sq(std::min(dxp, 0.0f))) +
-                      std::max(sq(std::max(dym, 0.0f)), sq(std::min(dyp, 0.0f))) +
-                      std::max(sq(std::max(dzm, 0.0f)), sq(std::min(dzp, 0.0f)));
-            else
-              norm2 = std::max(sq(std::min(dxm, 0.0f)), sq(std::max(dxp, 0.0f))) +
-                      std::max(sq(std::min(dym, 0.0f)), sq(std::max(dyp, 0.0f))) +
-                      std::max(sq(std::min(dzm, 0.0f)), sq(std::max(dzp, 0.0f)));
-            const float sign = phi / (std::sqrt(phi * phi + norm2) + 1e-7f);
-            value = phi - dt * sign * (std::sqrt(norm2) * inverseDx - 1.0f);
-          }
-          const bool on = std::abs(value) < background;
-          out[offset] = on ? value : (value > 0 ? background : -background);
-          leaf.setActiveState(openvdb::Index(offset), on);  // own mask only: neighbours read values
+      for (int y = 1; y <= D; ++y) {
+        const float* c = &f[x][y][1];
+        const float *xm = &f[x - 1][y][1], *xp = &f[x + 1][y][1], *ym = &f[x][y - 1][1], *yp = &f[x][y + 1][1];
+        float* o = out + (((x - 1) << 6) | ((y - 1) << 3));
+        // Active (|phi| < background), or a face neighbour of an active voxel.
+        float nearest[D];
+        float rowNearest = background;
+        for (int z = 0; z < D; ++z) {
+          nearest[z] = std::min(std::min(std::min(std::abs(c[z]), std::abs(xm[z])), std::min(std::abs(xp[z]), std::abs(ym[z]))),
+                                std::min(std::abs(yp[z]), std::min(std::abs(c[z - 1]), std::abs(c[z + 1]))));
+          rowNearest = std::min(rowNearest, nearest[z]);
         }
+        if (rowNearest >= background) {  // the row is outside the band: +-background, inactive
+          for (int z = 0; z < D; ++z) o[z] = c[z] > 0 ? background : -background;
+          continue;
+        }
+        std::uint64_t rowBits = 0;
+        for (int z = 0; z < D; ++z) {
+          const float phi = c[z];
+          // Godunov's upwind |grad phi|^2, first-order one-sided differences (index space):
+          // outside max(D-, 0)^2 vs min(D+, 0)^2, inside the other way round.
+          const float s = phi > 0 ? 1.0f : -1.0f;
+          auto upwind = [s](float minus, float plus) {
+            const float a = std::max(s * minus, 0.0f), b = std::min(s * plus, 0.0f);
+            return std::max(a * a, b * b);
+          };
+          const float norm2 =
+              upwind(phi - xm[z], xp[z] - phi) + upwind(phi - ym[z], yp[z] - phi) + upwind(phi - c[z - 1], c[z + 1] - phi);
+          const float sign = phi / (std::sqrt(phi * phi + norm2) + 1e-7f);
+          const float value =
+              nearest[z] < background ? phi - dt * sign * (std::sqrt(norm2) * inverseDx - 1.0f) : s * background;
+          const bool on = std::abs(value) < background;
+          o[z] = on ? value : std::copysign(background, value);
+          rowBits |= std::uint64_t(on) << z;
+        }
+        mask.getWord<std::uint64_t>(Index(x - 1)) |= rowBits << ((y - 1) << 3);
+      }
+    leaves[i]->setValueMask(mask);  // own mask only: neighbours read values
   });
 }
 
@@ -112,16 +126,17 @@ void filterLevelSet(openvdb::FloatGrid& grid, SurfaceFilter filter, int passes) 
     const LeafNeighborhoods band(grid.tree());
     std::vector<LeafT*> leaves;
     grid.tree().getNodes(leaves);
+    std::vector<LeafT::Buffer> scratch;
     profile.lap("filter: neighbourhoods");
     if (filter == SurfaceFilter::MeanCurvature && passes > 0) {
       for (int pass = 0; pass < passes; ++pass) {
-        meanCurvatureStep(band, leaves);
+        meanCurvatureStep(band, leaves, scratch);
         profile.lap("filter: mean curvature");
-        renormalizeStep(band, leaves, background, voxelSize);
+        renormalizeStep(band, leaves, scratch, background, voxelSize);
         profile.lap("filter: renormalize");
       }
     } else {
-      renormalizeStep(band, leaves, background, voxelSize);
+      renormalizeStep(band, leaves, scratch, background, voxelSize);
       profile.lap("filter: renormalize");
     }
   }

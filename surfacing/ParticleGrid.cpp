@@ -17,7 +17,13 @@ constexpr int kKeyBits = 21;
 constexpr std::int64_t kKeyRange = std::int64_t(1) << kKeyBits;
 constexpr std::uint64_t kNoKey = std::numeric_limits<std::uint64_t>::max();
 
-std::uint64_t hashKey(std::uint64_t key) { return key * 0x9E3779B97F4A7C15ull; }
+/// splitmix64's finaliser: every key bit reaches the low bits the table uses
+/// (a bare multiply left x out of them: whole rows of cells collided).
+std::uint64_t hashKey(std::uint64_t key) {
+  key = (key ^ (key >> 30)) * 0xBF58476D1CE4E5B9ull;
+  key = (key ^ (key >> 27)) * 0x94D049BB133111EBull;
+  return key ^ (key >> 31);
+}
 } // namespace
 
 ParticleGrid::ParticleGrid(const std::vector<Vec3r>& positions, double cellSize)
@@ -82,7 +88,7 @@ ParticleGrid::ParticleGrid(const std::vector<Vec3r>& positions, double cellSize)
   mTableMask = tableSize - 1;
   for (std::size_t cell = 0; cell < mCellCoords.size(); ++cell) {
     const std::uint64_t key = keyOf(mCellCoords[cell]);
-    std::uint64_t slot = (hashKey(key) >> 20) & mTableMask;
+    std::uint64_t slot = hashKey(key) & mTableMask;
     while (mTable[slot] >= 0) slot = (slot + 1) & mTableMask;
     mTable[slot] = std::int64_t(cell);
     mTableKey[slot] = key;
@@ -105,7 +111,7 @@ std::int64_t ParticleGrid::findCell(const Coord& coord) const {
   if (mTable.empty()) return -1;
   const std::uint64_t key = keyOf(coord);
   if (key == kNoKey) return -1;
-  std::uint64_t slot = (hashKey(key) >> 20) & mTableMask;
+  std::uint64_t slot = hashKey(key) & mTableMask;
   while (mTable[slot] >= 0) {
     if (mTableKey[slot] == key) return mTable[slot];
     slot = (slot + 1) & mTableMask;

@@ -86,21 +86,25 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
   // sorted, they give each leaf its candidates in kernel order (deterministic).
   // Leaf origin -> index: open addressing, load factor <= 1/2 (a binary search
   // per kernel and leaf cost more than the rest of the pairing).
-  auto packLeaf = [](const openvdb::Coord& origin) {
-    return (std::uint64_t(std::uint32_t(origin.x()) >> 3) << 42) ^
-           (std::uint64_t(std::uint32_t(origin.y()) >> 3) << 21) ^ std::uint64_t(std::uint32_t(origin.z()) >> 3);
+  auto packLeaf = [](const openvdb::Coord& origin) {  // then splitmix64's finaliser: all bits mixed
+    std::uint64_t key = (std::uint64_t(std::uint32_t(origin.x()) >> 3) << 42) ^
+                        (std::uint64_t(std::uint32_t(origin.y()) >> 3) << 21) ^
+                        std::uint64_t(std::uint32_t(origin.z()) >> 3);
+    key = (key ^ (key >> 30)) * 0xBF58476D1CE4E5B9ull;
+    key = (key ^ (key >> 27)) * 0x94D049BB133111EBull;
+    return key ^ (key >> 31);
   };
   std::size_t tableSize = 16;
   while (tableSize < 2 * origins.size()) tableSize *= 2;
   const std::uint64_t tableMask = tableSize - 1;
   std::vector<std::int64_t> table(tableSize, -1);
   for (std::size_t b = 0; b < origins.size(); ++b) {
-    std::uint64_t slot = ((packLeaf(origins[b]) * 0x9E3779B97F4A7C15ull) >> 20) & tableMask;
+    std::uint64_t slot = packLeaf(origins[b]) & tableMask;
     while (table[slot] >= 0) slot = (slot + 1) & tableMask;
     table[slot] = std::int64_t(b);
   }
   auto leafIndex = [&](const openvdb::Coord& origin) -> std::int64_t {
-    std::uint64_t slot = ((packLeaf(origin) * 0x9E3779B97F4A7C15ull) >> 20) & tableMask;
+    std::uint64_t slot = packLeaf(origin) & tableMask;
     for (std::int64_t b; (b = table[slot]) >= 0; slot = (slot + 1) & tableMask)
       if (origins[std::size_t(b)] == origin) return b;
     return -1;

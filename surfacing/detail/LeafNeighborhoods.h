@@ -77,21 +77,23 @@ struct LeafNeighborhoods {
     }
   }
 
-  /// Runs step(i, padded, out) on every leaf, then copies the outputs into
-  /// `targets` (the leaves of the same tree or of a topology copy, same order).
+  /// Runs step(i, padded, out) on every leaf with `out` a buffer of `scratch`
+  /// (allocated on first use, one per leaf), then swaps the buffers into
+  /// `targets` (the leaves of this tree, same order): no leaf changes while
+  /// others read it, and the buffers are reused from step to step.
   template <class Step>
-  void apply(const std::vector<FloatLeaf*>& targets, const Step& step) const {
-    std::vector<float> out(leaves.size() * FloatLeaf::SIZE);
+  void apply(const std::vector<FloatLeaf*>& targets, std::vector<FloatLeaf::Buffer>& scratch,
+             const Step& step) const {
+    scratch.resize(leaves.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 16), [&](const auto& range) {
       PaddedLeaf padded;
       for (std::size_t i = range.begin(); i != range.end(); ++i) {
         gather(i, padded);
-        step(i, padded, out.data() + i * FloatLeaf::SIZE);
+        step(i, padded, scratch[i].data());
       }
     });
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 64), [&](const auto& range) {
-      for (std::size_t i = range.begin(); i != range.end(); ++i)
-        std::copy_n(out.data() + i * FloatLeaf::SIZE, FloatLeaf::SIZE, targets[i]->buffer().data());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 256), [&](const auto& range) {
+      for (std::size_t i = range.begin(); i != range.end(); ++i) targets[i]->swap(scratch[i]);
     });
   }
 };

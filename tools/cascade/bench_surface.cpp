@@ -105,6 +105,8 @@ BenchTable benchSurface() {
     SurfaceOptions options;
     options.method = method;
     options.voxelSize = kVoxel;
+    // CASCADE_BENCH_SURFACE_ADAPTIVITY=A overrides the volumeToMesh adaptivity (for comparisons).
+    if (const char* adaptivity = std::getenv("CASCADE_BENCH_SURFACE_ADAPTIVITY")) options.adaptivity = std::atof(adaptivity);
     const std::clock_t cpuStart = std::clock();
     SurfaceResult result = surfaceParticles(points, kSpacing, options, dir / "surface.vdb", dir / "fluid.obj");
     const double cpu = double(std::clock() - cpuStart) / CLOCKS_PER_SEC;
