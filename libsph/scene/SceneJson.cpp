@@ -459,7 +459,7 @@ Scene parseScene(const json& value, const std::string& fileLabel, const fs::path
     s.repulsion = solver.number("repulsion", s.repulsion, Range::NonNegative);
     s.repulsionRadius = solver.number("repulsion_radius", s.repulsionRadius, Range::NonNegative);
     s.sampleGap = solver.numberIn("sample_gap", s.sampleGap, 0.05, 1.0);
-    s.slip = solver.choice("slip", s.slip, {"free", "no"});
+    s.slip = solver.choice("slip", s.slip, {"free", "no", "laminar"});  // laminar: MirrorSlip::LaminarWallShear
     s.kappa = solver.numberIn("kappa", s.kappa, 0.5, 2.0);
     solver.finish();
   }

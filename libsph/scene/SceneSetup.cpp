@@ -100,7 +100,9 @@ SimulationSettings simulationSettings(const Scene& scene) {
   boundary.repulsionStrength = Real(s.repulsion);
   boundary.repulsionRadius = Real(s.repulsionRadius);
   boundary.sampleGap = Real(s.sampleGap);
-  boundary.slip = s.slip == "no" ? MirrorSlip::NoSlip : MirrorSlip::FreeSlip;
+  boundary.slip = s.slip == "no"        ? MirrorSlip::NoSlip
+                  : s.slip == "laminar" ? MirrorSlip::LaminarWallShear
+                                        : MirrorSlip::FreeSlip;
   boundary.kappa = Real(s.kappa);
 
   if (scene.boundaries.domain) {

@@ -108,10 +108,11 @@ struct PairConstants {
 #ifdef CASCADE_DFSPH_AVX2
 #define CASCADE_DFSPH_TARGET __attribute__((target("avx2,fma")))
 
+/// The eight lanes of v added pairwise (once per particle: no shuffles needed).
 CASCADE_DFSPH_TARGET inline float horizontalSum(__m256 v) {
-  const __m128 s = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
-  const __m128 t = _mm_add_ps(s, _mm_movehl_ps(s, s));
-  return _mm_cvtss_f32(_mm_add_ss(t, _mm_shuffle_ps(t, t, 1)));
+  alignas(32) float lane[8];
+  _mm256_store_ps(lane, v);
+  return ((lane[0] + lane[1]) + (lane[2] + lane[3])) + ((lane[4] + lane[5]) + (lane[6] + lane[7]));
 }
 
 /// prepare()'s pair loop for eight neighbours at a time (the same terms as the scalar

@@ -12,7 +12,8 @@
 ///      with D_i = |sum_j V grad W_ij|^2 + sum_j |V grad W_ij|^2 (B&K 2017 eq. 10; with
 ///      mirrors, a particle's own images move with it and enter D_i), the pair terms
 ///      V grad W_ij kept for the solves (neighbours with grad W = 0 dropped, one 16-byte
-///      stream), the density change rate of the initial velocities, and the non-pressure
+///      stream; the AVX2 pass, eight neighbours at a time, keeps them with a zero gradient),
+///      the density change rate of the initial velocities, and the non-pressure
 ///      accelerations of the initial velocities: gravity, viscosity (Morris 1997 form with
 ///      nu = mu / rho_0) and Monaghan (1992) artificial viscosity alpha h c_ref with
 ///      c_ref = 10 x the expected speed (the default WCSPH's speed of sound), both with the
