@@ -9,6 +9,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 
@@ -367,9 +368,11 @@ CASCADE_WCSPH_TARGET Real kernelSumAvx2(const KernelConstants& k, const wcsph::P
   return horizontalSum(sum);
 }
 
+std::atomic<bool> gAvx2Allowed{true};
+
 bool wcsphUsesAvx2() {
   static const bool supported = __builtin_cpu_supports("avx2");
-  return supported;
+  return supported && gAvx2Allowed.load(std::memory_order_relaxed);
 }
 #endif
 
@@ -757,6 +760,16 @@ Real integrateSymplecticEuler(StepContext& c, Real dt) {
       },
       [](Real a, Real b) { return std::max(a, b); });
   return std::sqrt(maxA2);
+}
+
+bool allowVectorPairLoops(bool allowed) {
+#ifdef CASCADE_WCSPH_AVX2
+  gAvx2Allowed.store(allowed);
+  return wcsphUsesAvx2();
+#else
+  (void)allowed;
+  return false;
+#endif
 }
 
 } // namespace wcsph

@@ -87,6 +87,10 @@ void computeFluidAcceleration(StepContext& context, const Workspace& workspace);
 /// least half the expected speed out): the stiff r^-13 layers do not throw it
 /// out (contact limiter, not in the SEED).
 void addBoundaryAcceleration(StepContext& context, const Workspace& workspace, Real timeStep = 0);
+/// Whether the pair loops may take eight neighbours at a time (AVX2, if the
+/// processor has it; default) or must use the scalar loops (tests compare the
+/// two). Returns whether the vector loops are used from now on.
+bool allowVectorPairLoops(bool allowed);
 /// SEED (12)-(14): v += a dt, x += v dt. Returns the largest |a|.
 Real integrateSymplecticEuler(StepContext& context, Real dt);
 } // namespace wcsph
