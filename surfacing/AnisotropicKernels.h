@@ -14,6 +14,11 @@
 ///    volume (instead of eq. 15's constant k_s), and capped at `maxStretch`;
 ///    with fewer neighbours the kernel is isotropic and k_n = isolatedScale times
 ///    smaller (eq. 15), so that a lone droplet stays a small ball.
+/// Particles of cells deep inside the fluid (every cell within two cells holds at
+/// least 60 % of a lattice's count) have complete, symmetric neighbourhoods: they
+/// get the isotropic kernel centred on the particle without the neighbour sums
+/// (what eq. 6 and 15 give there up to the lattice jitter); they lie at least a
+/// cell from any sparser cell, so they only fill the inside of the band's leaves.
 /// The density field is then phi(x) = sum_j V_j W(G_j (x - xbar_j)) with
 /// W(q) = det(G) 315 / (64 pi) (1 - |q|^2)^3 for |q| < 1 (integral 1), so phi is
 /// about 1 inside the fluid and 0 outside (AnisotropicLevelSet.cpp).

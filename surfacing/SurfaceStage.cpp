@@ -105,6 +105,9 @@ void writeSurfaceVdb(const fs::path& path, openvdb::FloatGrid& levelSet, bool wi
   }
   writeFileAtomically(path, [&](const fs::path& temp) {
     openvdb::io::File file(temp.string());
+    // Active-mask compression (inactive values are +-background); Blosc only on request.
+    file.setCompression(options.vdbBlosc ? openvdb::io::COMPRESS_ACTIVE_MASK | openvdb::io::COMPRESS_BLOSC
+                                         : openvdb::io::COMPRESS_ACTIVE_MASK);
     file.write(grids);
     file.close();
   });

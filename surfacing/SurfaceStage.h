@@ -9,8 +9,8 @@
 /// normals). Pipeline per frame:
 ///   1. rasterize the particles into a narrow-band level set with one of the
 ///      methods below (surfacing/LevelSetMethods.h says what each computes);
-///   2. filter the level set (mean curvature, Gaussian or Laplacian passes,
-///      OpenVDB LevelSetFilter);
+///   2. filter the level set (mean curvature passes, leaf-parallel, or Gaussian
+///      or Laplacian passes with OpenVDB LevelSetFilter; LevelSetFiltering.h);
 ///   3. mesh it (OpenVDB volumeToMesh with adaptivity);
 ///   4. clean the mesh (surfacing/MeshCleanup.h: degenerate faces, small
 ///      components, outward orientation, optional CGAL remeshing or
@@ -92,6 +92,11 @@ struct SurfaceOptions {
   /// Give the VDB a y-up transform (a lattice rotation, for Houdini); default z-up
   /// (Blender reads VDB coordinates as they are).
   bool vdbYUp = false;
+  /// Blosc-compress the VDB's voxel values on top of OpenVDB's active-mask
+  /// compression (OpenVDB's own default). Off by default: on surfacing level
+  /// sets it saves ~3 % of the file and costs about a second of writing per
+  /// 0.9 M-particle frame; readers need no option either way.
+  bool vdbBlosc = false;
   bool force = false;        ///< rewrite outputs that already exist
 };
 

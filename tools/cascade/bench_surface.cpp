@@ -111,6 +111,9 @@ BenchTable benchSurface() {
     SurfaceResult result = surfaceParticles(points, kSpacing, options, dir / "surface.vdb", dir / "fluid.obj");
     const double cpu = double(std::clock() - cpuStart) / CLOCKS_PER_SEC;
     rows.push_back({surfaceMethodName(method), result.timings, cpu, result.mesh.triangles.size()});
+    std::cerr << "bench surface: " << rows.back().method << " files: VDB " << fs::file_size(dir / "surface.vdb") / 1e6
+              << " MB (" << result.activeVoxels << " active voxels), OBJ " << fs::file_size(dir / "fluid.obj") / 1e6
+              << " MB\n";
     std::cerr << "bench surface: " << rows.back().method << " " << milliseconds(result.timings.total())
               << " ms (VDB writer " << milliseconds(result.timings.vdbWrite) << " ms, overlapped); CPU ms by stage: "
               << milliseconds(result.timings.cpu.rasterize) << " " << milliseconds(result.timings.cpu.filter) << " "

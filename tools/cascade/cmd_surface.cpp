@@ -128,6 +128,8 @@ void addSurfaceCommand(CLI::App& app) {
   command->add_flag("--obj-z-up", options->objZUp,
                     "Write OBJ in the scene's z-up axes (default y-up: (x, y, z) -> (x, z, -y))");
   command->add_flag("--vdb-y-up", s.vdbYUp, "Give the VDB a y-up transform (for Houdini; default z-up)");
+  command->add_flag("--vdb-blosc", s.vdbBlosc,
+                    "Also Blosc-compress the VDB voxel values (a few % smaller, much slower to write)");
   command->add_flag("--force", s.force, "Redo frames whose outputs exist");
   command->callback([options] { runSurface(*options); });
 }
