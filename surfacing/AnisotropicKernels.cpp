@@ -31,15 +31,9 @@ std::vector<std::uint8_t> deepCells(const ParticleGrid& grid, double spacing) {
   auto erode = [&](const std::vector<std::uint8_t>& in, std::vector<std::uint8_t>& out) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells, 256), [&](const auto& range) {
       for (std::size_t cell = range.begin(); cell != range.end(); ++cell) {
-        bool all = in[cell] != 0;
-        const ParticleGrid::Coord& c = grid.cellCoord(cell);
-        for (int dx = -1; dx <= 1 && all; ++dx)
-          for (int dy = -1; dy <= 1 && all; ++dy)
-            for (int dz = -1; dz <= 1 && all; ++dz) {
-              const std::int64_t neighbor = grid.findCell(c + ParticleGrid::Coord(dx, dy, dz));
-              all = neighbor >= 0 && in[std::size_t(neighbor)];
-            }
-        out[cell] = all;
+        int count = 0;  // of the 27 cells around (itself included), those present and marked
+        if (in[cell]) grid.forEachNeighborCell(grid.cellCoord(cell), [&](std::size_t neighbor) { count += in[neighbor]; });
+        out[cell] = count == 27;
       }
     });
   };

@@ -43,9 +43,38 @@ public:
   /// Positions in sorted order.
   const std::vector<Vec3r>& sortedPosition() const { return mSortedPosition; }
 
+  /// Calls f(cell) for every non-empty cell of the 3x3x3 block around `coord`, in
+  /// (x, y, z) order. Cells are sorted by (x, y, z), so a z column's cells are
+  /// consecutive: after a hit, the next z is the next cell or absent (no lookup).
+  template <class F>
+  void forEachNeighborCell(const Coord& coord, F&& f) const {
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy) {
+        std::int64_t previous = -1;
+        for (int dz = -1; dz <= 1; ++dz) {
+          const Coord target(coord.x() + dx, coord.y() + dy, coord.z() + dz);
+          std::int64_t cell;
+          if (previous >= 0) {
+            const std::size_t next = std::size_t(previous) + 1;
+            cell = next < mCellCoords.size() && mCellCoords[next] == target ? std::int64_t(next) : -1;
+          } else {
+            cell = findCell(target);
+          }
+          if (cell >= 0) f(std::size_t(cell));
+          previous = cell;
+        }
+      }
+  }
+
   /// Calls f(k) for every sorted slot k whose cell is within `ring` cells of `coord`.
   template <class F>
   void forEachInNeighborCells(const Coord& coord, F&& f, int ring = 1) const {
+    if (ring == 1) {
+      forEachNeighborCell(coord, [&](std::size_t cell) {
+        for (std::uint32_t k = mCellStart[cell]; k < mCellStart[cell + 1]; ++k) f(k);
+      });
+      return;
+    }
     for (int dx = -ring; dx <= ring; ++dx)
       for (int dy = -ring; dy <= ring; ++dy)
         for (int dz = -ring; dz <= ring; ++dz) {
