@@ -44,13 +44,16 @@ openvdb::FloatGrid::Ptr anisotropicLevelSet(const std::vector<Vec3r>& positions,
       const Eigen::Matrix3f& G = kernels.transform[k];
       const float weight = kernels.weight[k];
       const Eigen::Vector3f p = (kernels.center[k].cast<double>() - originWorld).cast<float>();
-      const Eigen::Vector3f stepZ = G.col(2) * step;  // q = G d changes by this per voxel along z
+      // q = G d (Yu & Turk eq. 13: W = det(G) P(|G r|)) changes by G's columns times
+      // the voxel size per voxel along x, y, z.
+      const Eigen::Vector3f stepX = G.col(0) * step, stepY = G.col(1) * step, stepZ = G.col(2) * step;
       const float bb = stepZ.squaredNorm();
+      const Eigen::Vector3f qFirst =  // q at (lo.x, lo.y, local z = 0)
+          G * Eigen::Vector3f(float(lo.x() - origin.x()) * step - p.x(), float(lo.y() - origin.y()) * step - p.y(),
+                              -p.z());
       for (int x = lo.x(); x <= hi.x(); ++x)
         for (int y = lo.y(); y <= hi.y(); ++y) {
-          const Eigen::Vector3f d(float(x - origin.x()) * step - p.x(), float(y - origin.y()) * step - p.y(),
-                                  -p.z());
-          const Eigen::Vector3f a = G * d;  // q at local z = 0; Yu & Turk eq. 13: W = det(G) P(|G r|)
+          const Eigen::Vector3f a = qFirst + float(x - lo.x()) * stepX + float(y - lo.y()) * stepY;  // local z = 0
           // |a + z stepZ|^2 < 1 for some z: else the row misses the support.
           const float ab = a.dot(stepZ);
           if (ab * ab - bb * (a.squaredNorm() - 1) <= 0) continue;
