@@ -75,7 +75,7 @@ struct Solver {
   /// WCSPH pressure force: "hamiltonian" (Monaghan 1992) | "symmetric" | "mueller_half" (SEED (5) as printed)
   std::string pressureForce = "hamiltonian";
   bool surfaceLayerPressure = true;  ///< WCSPH: top layer keeps rho_0 |g| s / 2
-  double artificialViscosity = 0.05; ///< Monaghan alpha; 0 = off
+  double artificialViscosity = 0.1;  ///< Monaghan alpha; 0 = off
   bool artificialViscosityAllPairs = true;  ///< WCSPH: also for receding pairs
   double expectedSpeed = 0;          ///< m/s; 0: derived (free fall height, emitter speeds)
   double instabilitySpeedFactor = 20;
