@@ -87,25 +87,23 @@ void renormalizeStep(const LeafNeighborhoods& band, const std::vector<LeafT*>& l
           for (int z = 0; z < D; ++z) o[z] = c[z] > 0 ? background : -background;
           continue;
         }
-        std::uint64_t rowBits = 0;
+        // Every voxel computed, then selected: no branch in the loop, so it vectorises.
         for (int z = 0; z < D; ++z) {
           const float phi = c[z];
           // Godunov's upwind |grad phi|^2, first-order one-sided differences (index space):
           // outside max(D-, 0)^2 vs min(D+, 0)^2, inside the other way round.
           const float s = phi > 0 ? 1.0f : -1.0f;
-          auto upwind = [s](float minus, float plus) {
-            const float a = std::max(s * minus, 0.0f), b = std::min(s * plus, 0.0f);
-            return std::max(a * a, b * b);
-          };
-          const float norm2 =
-              upwind(phi - xm[z], xp[z] - phi) + upwind(phi - ym[z], yp[z] - phi) + upwind(phi - c[z - 1], c[z + 1] - phi);
+          const float ax = std::max(s * (phi - xm[z]), 0.0f), bx = std::min(s * (xp[z] - phi), 0.0f);
+          const float ay = std::max(s * (phi - ym[z]), 0.0f), by = std::min(s * (yp[z] - phi), 0.0f);
+          const float az = std::max(s * (phi - c[z - 1]), 0.0f), bz = std::min(s * (c[z + 1] - phi), 0.0f);
+          const float norm2 = std::max(ax * ax, bx * bx) + std::max(ay * ay, by * by) + std::max(az * az, bz * bz);
           const float sign = phi / (std::sqrt(phi * phi + norm2) + 1e-7f);
-          const float value =
-              nearest[z] < background ? phi - dt * sign * (std::sqrt(norm2) * inverseDx - 1.0f) : s * background;
-          const bool on = std::abs(value) < background;
-          o[z] = on ? value : std::copysign(background, value);
-          rowBits |= std::uint64_t(on) << z;
+          const float step = phi - dt * sign * (std::sqrt(norm2) * inverseDx - 1.0f);
+          const float value = nearest[z] < background ? step : s * background;
+          o[z] = std::abs(value) < background ? value : (value > 0 ? background : -background);
         }
+        std::uint64_t rowBits = 0;
+        for (int z = 0; z < D; ++z) rowBits |= std::uint64_t(std::abs(o[z]) < background) << z;
         mask.getWord<std::uint64_t>(Index(x - 1)) |= rowBits << ((y - 1) << 3);
       }
     leaves[i]->setValueMask(mask);  // own mask only: neighbours read values

@@ -161,6 +161,8 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
     }
   });
   profile.lap("blocks: accumulate");
+  if (std::getenv("CASCADE_SURFACE_PROFILE"))
+    std::fprintf(stderr, "  profile blocks: %zu leaves, %zu (leaf, kernel) pairs\n", origins.size(), pairs.size());
   for (LeafT* leaf : leaves)
     if (leaf) tree.addLeaf(leaf);
   profile.lap("blocks: add leaves");
