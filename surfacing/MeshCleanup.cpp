@@ -139,12 +139,19 @@ MeshCleanupStats cleanupMesh(TriangleMesh& mesh, const MeshCleanupSettings& sett
                                      .squaredNorm() > 0;
     }
   });
-  std::vector<std::array<std::uint32_t, 3>> kept;
-  kept.reserve(mesh.triangles.size());
-  for (std::size_t i = 0; i < mesh.triangles.size(); ++i)
-    if (good[i]) kept.push_back(mesh.triangles[i]);
-  stats.degenerateTriangles = mesh.triangles.size() - kept.size();
-  mesh.triangles.swap(kept);
+  // Keeps the triangles whose flag is set, in order (no copy if all are kept).
+  auto keepFlagged = [&mesh](const std::vector<std::uint8_t>& keep) {
+    std::size_t count = 0;
+    for (std::uint8_t k : keep) count += k;
+    if (count == keep.size()) return std::size_t(0);
+    std::vector<std::array<std::uint32_t, 3>> kept;
+    kept.reserve(count);
+    for (std::size_t i = 0; i < keep.size(); ++i)
+      if (keep[i]) kept.push_back(mesh.triangles[i]);
+    mesh.triangles.swap(kept);
+    return keep.size() - count;
+  };
+  stats.degenerateTriangles = keepFlagged(good);
 
   profile.lap("cleanup: degenerate");
   // 2. Components and their volumes (relative to a local origin, for precision).
@@ -153,30 +160,42 @@ MeshCleanupStats cleanupMesh(TriangleMesh& mesh, const MeshCleanupSettings& sett
     components.unite(t[0], t[1]);
     components.unite(t[0], t[2]);
   }
-  std::vector<double> volume(mesh.vertices.size(), 0.0);
-  std::vector<std::uint32_t> rootOfTriangle(mesh.triangles.size());
-  for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
-    const auto& t = mesh.triangles[i];
-    const std::uint32_t root = components.find(t[0]);
-    rootOfTriangle[i] = root;
-    const Eigen::Vector3f& origin = mesh.vertices[root];
-    volume[root] += tetraVolume(mesh.vertices[t[0]] - origin, mesh.vertices[t[1]] - origin,
-                                mesh.vertices[t[2]] - origin);
-  }
+  // Roots are the smallest index of their set, so parent[v] <= v: in increasing
+  // order one step from each vertex reaches its root.
+  std::vector<std::uint32_t>& root = components.parent;
+  for (std::size_t v = 0; v < root.size(); ++v) root[v] = root[root[v]];
+  // Volumes: two fixed halves of the triangles in parallel, added in order.
+  std::vector<double> volume(mesh.vertices.size(), 0.0), secondHalf(mesh.vertices.size(), 0.0);
+  auto addVolumes = [&](std::size_t begin, std::size_t end, std::vector<double>& sum) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const auto& t = mesh.triangles[i];
+      const std::uint32_t r = root[t[0]];
+      const Eigen::Vector3f& origin = mesh.vertices[r];
+      sum[r] += tetraVolume(mesh.vertices[t[0]] - origin, mesh.vertices[t[1]] - origin,
+                            mesh.vertices[t[2]] - origin);
+    }
+  };
+  const std::size_t half = mesh.triangles.size() / 2;
+  tbb::parallel_invoke([&] { addVolumes(0, half, volume); },
+                       [&] { addVolumes(half, mesh.triangles.size(), secondHalf); });
   double total = 0;
-  for (std::size_t v = 0; v < volume.size(); ++v)
-    if (components.parent[v] == v && volume[v] != 0) {
+  for (std::size_t v = 0; v < volume.size(); ++v) {
+    volume[v] += secondHalf[v];
+    if (root[v] == v && volume[v] != 0) {
       ++stats.components;
       total += volume[v];
     }
+  }
   if (settings.minComponentVolume > 0) {
-    kept.clear();
-    for (std::size_t i = 0; i < mesh.triangles.size(); ++i)
-      if (std::abs(volume[rootOfTriangle[i]]) >= settings.minComponentVolume) kept.push_back(mesh.triangles[i]);
     for (std::size_t v = 0; v < volume.size(); ++v)
-      if (components.parent[v] == v && volume[v] != 0 && std::abs(volume[v]) < settings.minComponentVolume)
+      if (root[v] == v && volume[v] != 0 && std::abs(volume[v]) < settings.minComponentVolume)
         ++stats.droppedComponents, total -= volume[v];
-    mesh.triangles.swap(kept);
+    std::vector<std::uint8_t> keep(mesh.triangles.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, keep.size(), 16384), [&](const auto& range) {
+      for (std::size_t i = range.begin(); i != range.end(); ++i)
+        keep[i] = std::abs(volume[root[mesh.triangles[i][0]]]) >= settings.minComponentVolume;
+    });
+    keepFlagged(keep);
   }
 
   // 3. Outward orientation.
