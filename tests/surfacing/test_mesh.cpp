@@ -196,3 +196,39 @@ TEST(SurfaceMesh, VdbRoundTrip) {
 }
 
 } // namespace
+
+namespace {
+
+/// Every active voxel of `a` has the same value in `b` and the active counts agree.
+std::size_t differingVoxels(const openvdb::FloatGrid& a, const openvdb::FloatGrid& b) {
+  std::size_t differing = a.activeVoxelCount() == b.activeVoxelCount() ? 0 : 1;
+  const auto accessor = b.getConstAccessor();
+  for (auto it = a.tree().cbeginValueOn(); it; ++it)
+    if (!accessor.isValueOn(it.getCoord()) || accessor.getValue(it.getCoord()) != *it) ++differing;
+  return differing;
+}
+
+} // namespace
+
+// The default VDB (active-mask compression only) and the --vdb-blosc one hold the
+// same voxels bit for bit; Blosc only changes the encoding.
+TEST(SurfaceMesh, VdbWithAndWithoutBloscHoldTheSameVoxels) {
+  const auto points = test::latticeBall(Vec3d(0.1, 0.2, 0.3), 8 * kSpacing, kSpacing);
+  const fs::path dir = scratchDir("vdb_blosc");
+  SurfaceOptions options;
+  surfaceParticles(points, kSpacing, options, dir / "plain.vdb");
+  options.vdbBlosc = true;
+  surfaceParticles(points, kSpacing, options, dir / "blosc.vdb");
+  auto read = [](const fs::path& path) {
+    openvdb::io::File file(path.string());
+    file.open();
+    auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("surface"));
+    file.close();
+    return grid;
+  };
+  const auto plain = read(dir / "plain.vdb"), blosc = read(dir / "blosc.vdb");
+  ASSERT_TRUE(plain && blosc);
+  EXPECT_GT(plain->activeVoxelCount(), 1000u);
+  EXPECT_EQ(differingVoxels(*plain, *blosc), 0u);
+  EXPECT_EQ(differingVoxels(*blosc, *plain), 0u);
+}
