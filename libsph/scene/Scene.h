@@ -94,7 +94,7 @@ struct Solver {
   double repulsion = 0;              ///< D of SEED (11), m^2/s^2; 0: expected_speed^2
   double repulsionRadius = 0;        ///< r0 of SEED (11), m; 0: the fluid spacing
   double sampleGap = 0.5;            ///< largest type I gap as a fraction of r0
-  std::string slip = "free";         ///< mirror velocity: "free" | "no"
+  std::string slip = "free";         ///< mirror velocity: "free" | "no" | "laminar" (free + laminar wall shear, DFSPH)
   double kappa = 1;                  ///< mirrors within kappa h of a wall
 };
 
