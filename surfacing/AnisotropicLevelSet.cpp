@@ -48,6 +48,7 @@ openvdb::FloatGrid::Ptr anisotropicLevelSet(const std::vector<Vec3r>& positions,
       // the voxel size per voxel along x, y, z.
       const Eigen::Vector3f stepX = G.col(0) * step, stepY = G.col(1) * step, stepZ = G.col(2) * step;
       const float bb = stepZ.squaredNorm();
+      const Row zzbb = kRowZ * kRowZ * bb;  // the z^2 |stepZ|^2 term of |q|^2 along a row
       const Eigen::Vector3f qFirst =  // q at (lo.x, lo.y, local z = 0)
           G * Eigen::Vector3f(float(lo.x() - origin.x()) * step - p.x(), float(lo.y() - origin.y()) * step - p.y(),
                               -p.z());
@@ -55,14 +56,15 @@ openvdb::FloatGrid::Ptr anisotropicLevelSet(const std::vector<Vec3r>& positions,
         for (int y = lo.y(); y <= hi.y(); ++y) {
           const Eigen::Vector3f a = qFirst + float(x - lo.x()) * stepX + float(y - lo.y()) * stepY;  // local z = 0
           // |a + z stepZ|^2 < 1 for some z: else the row misses the support.
-          const float ab = a.dot(stepZ);
-          if (ab * ab - bb * (a.squaredNorm() - 1) <= 0) continue;
+          const float ab = a.dot(stepZ), aa = a.squaredNorm();
+          if (ab * ab - bb * (aa - 1) <= 0) continue;
           // The whole row of the leaf, branch free (voxels outside the support add 0):
           // cheaper than finding the row's ends for the 2-3 voxels a row usually has.
-          // (Eigen evaluates the 8-float arrays with SIMD packets.)
+          // |q|^2 = |a|^2 + 2 z a.stepZ + z^2 |stepZ|^2: one multiply-add per voxel
+          // instead of three components squared. (Eigen evaluates the 8-float arrays
+          // with SIMD packets.)
           Eigen::Map<Row, Eigen::Aligned16> row(out + (((x - origin.x()) << 6) | ((y - origin.y()) << 3)));
-          const Row qx = a.x() + kRowZ * stepZ.x(), qy = a.y() + kRowZ * stepZ.y(), qz = a.z() + kRowZ * stepZ.z();
-          const Row t = (1.0f - (qx * qx + qy * qy + qz * qz)).max(0.0f);
+          const Row t = ((1.0f - aa) - (2.0f * ab) * kRowZ - zzbb).max(0.0f);
           row += weight * t * t * t;
         }
     }

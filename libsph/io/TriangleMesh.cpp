@@ -59,6 +59,7 @@ std::uint64_t digitBytes(std::uint32_t value) {
   return q | ((x - q * 10) << 8);
 }
 
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "digit words are laid out for little-endian stores");
 constexpr std::uint64_t kAsciiZeros = 0x3030303030303030ull;
 
 /// Stores the eight bytes of `word` at `out` (the buffers keep slack for it).
