@@ -52,11 +52,15 @@ openvdb::FloatGrid::Ptr anisotropicLevelSet(const std::vector<Vec3r>& positions,
       const Eigen::Vector3f qFirst =  // q at (lo.x, lo.y, local z = 0)
           G * Eigen::Vector3f(float(lo.x() - origin.x()) * step - p.x(), float(lo.y() - origin.y()) * step - p.y(),
                               -p.z());
-      for (int x = lo.x(); x <= hi.x(); ++x)
-        for (int y = lo.y(); y <= hi.y(); ++y) {
-          const Eigen::Vector3f a = qFirst + float(x - lo.x()) * stepX + float(y - lo.y()) * stepY;  // local z = 0
+      // Along y, a = q at local z = 0 steps by stepY: a.stepZ steps by stepY.stepZ and
+      // |a|^2 by a difference that itself grows by 2 |stepY|^2 (a quadratic, stepped).
+      const float yz = stepY.dot(stepZ), yy2 = 2 * stepY.squaredNorm();
+      for (int x = lo.x(); x <= hi.x(); ++x) {
+        const Eigen::Vector3f column = qFirst + float(x - lo.x()) * stepX;  // a at y = lo.y
+        float ab = column.dot(stepZ), aa = column.squaredNorm();
+        float aaStep = 2 * column.dot(stepY) + 0.5f * yy2;
+        for (int y = lo.y(); y <= hi.y(); ++y, ab += yz, aa += aaStep, aaStep += yy2) {
           // |a + z stepZ|^2 < 1 for some z: else the row misses the support.
-          const float ab = a.dot(stepZ), aa = a.squaredNorm();
           if (ab * ab - bb * (aa - 1) <= 0) continue;
           // The whole row of the leaf, branch free (voxels outside the support add 0):
           // cheaper than finding the row's ends for the 2-3 voxels a row usually has.
@@ -67,6 +71,7 @@ openvdb::FloatGrid::Ptr anisotropicLevelSet(const std::vector<Vec3r>& positions,
           const Row t = ((1.0f - aa) - (2.0f * ab) * kRowZ - zzbb).max(0.0f);
           row += weight * t * t * t;
         }
+      }
     }
     return true;
   });
