@@ -115,7 +115,7 @@ struct BoxFilterAvx2 {
         _mm256_sub_epi32(_mm256_sllv_epi32(one, _mm256_sub_epi32(_mm256_set1_epi32(kLevels), level)), one);
     __m256i outside = _mm256_setzero_si256(), notInside = _mm256_setzero_si256();
     for (int a = 0; a < 3; ++a) {
-      const __m256i lo = _mm256_load_si256(reinterpret_cast<const __m256i*>(block.lo[a]));
+      const __m256i lo = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(block.lo[a]));
       const __m256i hi = _mm256_add_epi32(lo, last);
       const __m256i qlo = _mm256_set1_epi32(static_cast<int>(queryLo[a]));
       const __m256i qhi = _mm256_set1_epi32(static_cast<int>(queryHi[a]));
@@ -127,7 +127,7 @@ struct BoxFilterAvx2 {
     inside = ~static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(notInside))) & 0xffu;
   }
   __attribute__((target("avx2"))) static inline unsigned leafMask(const OctreeSearch::ChildBlock& block) {
-    const __m256i child = _mm256_load_si256(reinterpret_cast<const __m256i*>(block.block));
+    const __m256i child = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(block.block));
     return static_cast<unsigned>(
         _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(child, _mm256_set1_epi32(-1)))));
   }

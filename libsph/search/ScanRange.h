@@ -147,7 +147,7 @@ struct ScanAvx2 {
       mask &= ~static_cast<unsigned>(
           _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(index, vexclude))));
       if (end - j < 8) mask &= (1u << (end - j)) - 1u;
-      const __m256i lanes = _mm256_load_si256(reinterpret_cast<const __m256i*>(table[mask]));
+      const __m256i lanes = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(table[mask]));
       _mm256_storeu_si256(reinterpret_cast<__m256i*>(out + n),
                           _mm256_permutevar8x32_epi32(index, lanes));
       n += static_cast<std::uint32_t>(__builtin_popcount(mask));
@@ -187,10 +187,10 @@ struct ScanAvx2 {
           tail;
       _mm256_storeu_si256(reinterpret_cast<__m256i*>(outA + na),
                           _mm256_permutevar8x32_epi32(
-                              index, _mm256_load_si256(reinterpret_cast<const __m256i*>(table[maskA]))));
+                              index, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(table[maskA]))));
       _mm256_storeu_si256(reinterpret_cast<__m256i*>(outB + nb),
                           _mm256_permutevar8x32_epi32(
-                              index, _mm256_load_si256(reinterpret_cast<const __m256i*>(table[maskB]))));
+                              index, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(table[maskB]))));
       na += static_cast<std::uint32_t>(__builtin_popcount(maskA));
       nb += static_cast<std::uint32_t>(__builtin_popcount(maskB));
     }

@@ -137,7 +137,7 @@ CASCADE_DFSPH_TARGET void fluidPairsAvx2(const Vec3r& xi, const Vec3r& vi, const
     const std::uint32_t lanes = std::min<std::uint32_t>(8, count - base);
     alignas(32) std::int32_t index[8];
     for (std::uint32_t l = 0; l < 8; ++l) index[l] = static_cast<std::int32_t>(neighbors[base + (l < lanes ? l : 0)]);
-    const __m256i j = _mm256_load_si256(reinterpret_cast<const __m256i*>(index));
+    const __m256i j = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(index));
     const __m256i j3 = _mm256_add_epi32(j, _mm256_add_epi32(j, j));
     const __m256 rx = _mm256_sub_ps(pxi, _mm256_i32gather_ps(pos, j3, 4));
     const __m256 ry = _mm256_sub_ps(pyi, _mm256_i32gather_ps(pos + 1, j3, 4));
