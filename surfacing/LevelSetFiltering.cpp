@@ -3,7 +3,6 @@
 #include "surfacing/detail/LeafNeighborhoods.h"
 #include "surfacing/detail/Profile.h"
 
-#include <Eigen/Core>
 #include <openvdb/tools/LevelSetFilter.h>
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tree/LeafManager.h>
@@ -25,87 +24,99 @@ constexpr int P = detail::kPaddedDim;
 
 using openvdb::Index;
 
+/// One leaf of meanCurvatureStep, from its padded values `f` into `out`. Compiled
+/// for AVX2 and for the baseline (the same IEEE operations, so the same bits).
+__attribute__((target_clones("avx2", "default")))
+void meanCurvatureLeaf(const float (&f)[P][P][P], float* out, const LeafT::NodeMaskType& mask) {
+  for (int x = 1; x <= D; ++x)
+    for (int y = 1; y <= D; ++y) {
+      const float *c = &f[x][y][1], *xm = &f[x - 1][y][1], *xp = &f[x + 1][y][1], *ym = &f[x][y - 1][1],
+                  *yp = &f[x][y + 1][1];
+      const float *xmym = &f[x - 1][y - 1][1], *xmyp = &f[x - 1][y + 1][1], *xpym = &f[x + 1][y - 1][1],
+                  *xpyp = &f[x + 1][y + 1][1];
+      float updated[D];
+      for (int z = 0; z < D; ++z) {
+        const float Dx = 0.5f * (xp[z] - xm[z]), Dy = 0.5f * (yp[z] - ym[z]), Dz = 0.5f * (c[z + 1] - c[z - 1]);
+        const float Dx2 = Dx * Dx, Dy2 = Dy * Dy, Dz2 = Dz * Dz, normGrad2 = Dx2 + Dy2 + Dz2;
+        const float Dxx = xp[z] - 2 * c[z] + xm[z], Dyy = yp[z] - 2 * c[z] + ym[z], Dzz = c[z + 1] - 2 * c[z] + c[z - 1];
+        const float Dxy = 0.25f * (xpyp[z] - xmyp[z] - xpym[z] + xmym[z]);
+        const float Dxz = 0.25f * (xp[z + 1] - xm[z + 1] - xp[z - 1] + xm[z - 1]);
+        const float Dyz = 0.25f * (yp[z + 1] - ym[z + 1] - yp[z - 1] + ym[z - 1]);
+        const float alpha = Dx2 * (Dyy + Dzz) + Dy2 * (Dxx + Dzz) + Dz2 * (Dxx + Dyy) -
+                            2 * (Dx * (Dy * Dxy + Dz * Dxz) + Dy * Dz * Dyz);
+        const bool flat = normGrad2 <= 1e-16f;  // OpenVDB: no update below Tolerance<double>
+        updated[z] = flat ? c[z] : c[z] + alpha / (6 * (flat ? 1.0f : normGrad2));
+      }
+      // Inactive voxels keep their value.
+      const unsigned rowBits = unsigned(mask.getWord<std::uint64_t>(Index(x - 1)) >> ((y - 1) << 3)) & 0xffu;
+      float* o = out + (((x - 1) << 6) | ((y - 1) << 3));
+      for (int z = 0; z < D; ++z) o[z] = (rowBits >> z) & 1u ? updated[z] : c[z];
+    }
+}
+
 /// One step of mean curvature flow on the active voxels: phi += dt kappa |grad phi|,
 /// dt = dx^2 / 3 (OpenVDB LevelSetFilter's step); kappa |grad phi| as OpenVDB's
 /// CurvatureStencil::meanCurvatureNormGrad (index-space differences, so with
 /// dt the update is alpha / (6 |grad phi|^2)).
-using Row = Eigen::Array<float, D, 1>;  // one row of a leaf along z (Eigen: SIMD packets)
-using RowMap = Eigen::Map<const Row>;
-
 void meanCurvatureStep(const LeafNeighborhoods& band, const std::vector<LeafT*>& leaves,
                        std::vector<LeafT::Buffer>& scratch) {
   band.apply(leaves, scratch, [&](std::size_t i, const float (&f)[P][P][P], float* out) {
-    const LeafT::NodeMaskType& mask = band.leaves[i]->valueMask();
-    for (int x = 1; x <= D; ++x)
-      for (int y = 1; y <= D; ++y) {
-        // Inactive voxels keep their value.
-        const RowMap c(&f[x][y][1]), zm(&f[x][y][0]), zp(&f[x][y][2]);
-        const RowMap xm(&f[x - 1][y][1]), xp(&f[x + 1][y][1]), ym(&f[x][y - 1][1]), yp(&f[x][y + 1][1]);
-        const RowMap xmzm(&f[x - 1][y][0]), xmzp(&f[x - 1][y][2]), xpzm(&f[x + 1][y][0]), xpzp(&f[x + 1][y][2]);
-        const RowMap ymzm(&f[x][y - 1][0]), ymzp(&f[x][y - 1][2]), ypzm(&f[x][y + 1][0]), ypzp(&f[x][y + 1][2]);
-        const RowMap xmym(&f[x - 1][y - 1][1]), xmyp(&f[x - 1][y + 1][1]), xpym(&f[x + 1][y - 1][1]),
-            xpyp(&f[x + 1][y + 1][1]);
-        const Row Dx = 0.5f * (xp - xm), Dy = 0.5f * (yp - ym), Dz = 0.5f * (zp - zm);
-        const Row Dx2 = Dx.square(), Dy2 = Dy.square(), Dz2 = Dz.square(), normGrad2 = Dx2 + Dy2 + Dz2;
-        const Row Dxx = xp - 2 * c + xm, Dyy = yp - 2 * c + ym, Dzz = zp - 2 * c + zm;
-        const Row Dxy = 0.25f * (xpyp - xmyp - xpym + xmym);
-        const Row Dxz = 0.25f * (xpzp - xmzp - xpzm + xmzm);
-        const Row Dyz = 0.25f * (ypzp - ymzp - ypzm + ymzm);
-        const Row alpha = Dx2 * (Dyy + Dzz) + Dy2 * (Dxx + Dzz) + Dz2 * (Dxx + Dyy) -
-                          2 * (Dx * (Dy * Dxy + Dz * Dxz) + Dy * Dz * Dyz);
-        const auto flat = normGrad2 <= 1e-16f;  // OpenVDB: no update below Tolerance<double>
-        const Row updated = flat.select(c, c + alpha / (6 * flat.select(Row::Ones(), normGrad2)));
-        const unsigned rowBits = unsigned(mask.getWord<std::uint64_t>(Index(x - 1)) >> ((y - 1) << 3)) & 0xffu;
-        float* o = out + (((x - 1) << 6) | ((y - 1) << 3));
-        for (int z = 0; z < D; ++z) o[z] = (rowBits >> z) & 1u ? updated[z] : c[z];
-      }
+    meanCurvatureLeaf(f, out, band.leaves[i]->valueMask());
   });
 }
 
-/// One renormalisation step (Sussman, Smereka & Osher 1994) on the band dilated by
-/// one voxel, then the band trimmed to |phi| < background: inactive voxels hold
-/// +-background.
+/// One renormalisation step (Sussman, Smereka & Osher 1994) of one leaf, from its
+/// padded values `f` into `out`; returns the new active mask (|phi| < background).
+/// Compiled for AVX2 and for the baseline; both give the same bits (no FMA
+/// contraction: -ffp-contract=off, and the same IEEE operations).
+__attribute__((target_clones("avx2", "default")))
+void renormalizeLeaf(const float (&f)[P][P][P], float* out, LeafT::NodeMaskType& mask, float background,
+                     float dt, float inverseDx) {
+  for (int x = 1; x <= D; ++x)
+    for (int y = 1; y <= D; ++y) {
+      const float* c = &f[x][y][1];
+      const float *xm = &f[x - 1][y][1], *xp = &f[x + 1][y][1], *ym = &f[x][y - 1][1], *yp = &f[x][y + 1][1];
+      float* o = out + (((x - 1) << 6) | ((y - 1) << 3));
+      // Active (|phi| < background), or a face neighbour of an active voxel.
+      float nearest[D];
+      for (int z = 0; z < D; ++z)
+        nearest[z] = std::min(std::min(std::min(std::abs(c[z]), std::abs(xm[z])), std::min(std::abs(xp[z]), std::abs(ym[z]))),
+                              std::min(std::abs(yp[z]), std::min(std::abs(c[z - 1]), std::abs(c[z + 1]))));
+      float rowNearest = background;
+      for (int z = 0; z < D; ++z) rowNearest = std::min(rowNearest, nearest[z]);
+      if (rowNearest >= background) {  // the row is outside the band: +-background, inactive
+        for (int z = 0; z < D; ++z) o[z] = c[z] > 0 ? background : -background;
+        continue;
+      }
+      // Every voxel computed, then selected: no branch in the loop, so it vectorises.
+      std::uint64_t rowBits = 0;
+      for (int z = 0; z < D; ++z) {
+        const float phi = c[z];
+        // Godunov's upwind |grad phi|^2, first-order one-sided differences (index space):
+        // outside max(D-, 0)^2 vs min(D+, 0)^2, inside the other way round.
+        const float s = phi > 0 ? 1.0f : -1.0f;
+        const float ax = std::max(s * (phi - xm[z]), 0.0f), bx = std::min(s * (xp[z] - phi), 0.0f);
+        const float ay = std::max(s * (phi - ym[z]), 0.0f), by = std::min(s * (yp[z] - phi), 0.0f);
+        const float az = std::max(s * (phi - c[z - 1]), 0.0f), bz = std::min(s * (c[z + 1] - phi), 0.0f);
+        const float norm2 = std::max(ax * ax, bx * bx) + std::max(ay * ay, by * by) + std::max(az * az, bz * bz);
+        const float sign = phi / (std::sqrt(phi * phi + norm2) + 1e-7f);
+        const float step = phi - dt * sign * (std::sqrt(norm2) * inverseDx - 1.0f);
+        const float value = nearest[z] < background ? step : s * background;
+        o[z] = std::min(std::max(value, -background), background);  // the band's limits
+      }
+      for (int z = 0; z < D; ++z) rowBits |= std::uint64_t(std::abs(o[z]) < background) << z;
+      mask.getWord<std::uint64_t>(Index(x - 1)) |= rowBits << ((y - 1) << 3);
+    }
+}
+
+/// One renormalisation step on the band dilated by one voxel, then the band
+/// trimmed to |phi| < background: inactive voxels hold +-background.
 void renormalizeStep(const LeafNeighborhoods& band, const std::vector<LeafT*>& leaves,
                      std::vector<LeafT::Buffer>& scratch, float background, float voxelSize) {
   const float dt = 0.3f * voxelSize, inverseDx = 1.0f / voxelSize;
   band.apply(leaves, scratch, [&](std::size_t i, const float (&f)[P][P][P], float* out) {
     LeafT::NodeMaskType mask;
-    for (int x = 1; x <= D; ++x)
-      for (int y = 1; y <= D; ++y) {
-        const float* c = &f[x][y][1];
-        const float *xm = &f[x - 1][y][1], *xp = &f[x + 1][y][1], *ym = &f[x][y - 1][1], *yp = &f[x][y + 1][1];
-        float* o = out + (((x - 1) << 6) | ((y - 1) << 3));
-        // Active (|phi| < background), or a face neighbour of an active voxel.
-        float nearest[D];
-        float rowNearest = background;
-        for (int z = 0; z < D; ++z) {
-          nearest[z] = std::min(std::min(std::min(std::abs(c[z]), std::abs(xm[z])), std::min(std::abs(xp[z]), std::abs(ym[z]))),
-                                std::min(std::abs(yp[z]), std::min(std::abs(c[z - 1]), std::abs(c[z + 1]))));
-          rowNearest = std::min(rowNearest, nearest[z]);
-        }
-        if (rowNearest >= background) {  // the row is outside the band: +-background, inactive
-          for (int z = 0; z < D; ++z) o[z] = c[z] > 0 ? background : -background;
-          continue;
-        }
-        // Every voxel computed, then selected: no branch in the loop, so it vectorises.
-        for (int z = 0; z < D; ++z) {
-          const float phi = c[z];
-          // Godunov's upwind |grad phi|^2, first-order one-sided differences (index space):
-          // outside max(D-, 0)^2 vs min(D+, 0)^2, inside the other way round.
-          const float s = phi > 0 ? 1.0f : -1.0f;
-          const float ax = std::max(s * (phi - xm[z]), 0.0f), bx = std::min(s * (xp[z] - phi), 0.0f);
-          const float ay = std::max(s * (phi - ym[z]), 0.0f), by = std::min(s * (yp[z] - phi), 0.0f);
-          const float az = std::max(s * (phi - c[z - 1]), 0.0f), bz = std::min(s * (c[z + 1] - phi), 0.0f);
-          const float norm2 = std::max(ax * ax, bx * bx) + std::max(ay * ay, by * by) + std::max(az * az, bz * bz);
-          const float sign = phi / (std::sqrt(phi * phi + norm2) + 1e-7f);
-          const float step = phi - dt * sign * (std::sqrt(norm2) * inverseDx - 1.0f);
-          const float value = nearest[z] < background ? step : s * background;
-          o[z] = std::abs(value) < background ? value : (value > 0 ? background : -background);
-        }
-        std::uint64_t rowBits = 0;
-        for (int z = 0; z < D; ++z) rowBits |= std::uint64_t(std::abs(o[z]) < background) << z;
-        mask.getWord<std::uint64_t>(Index(x - 1)) |= rowBits << ((y - 1) << 3);
-      }
+    renormalizeLeaf(f, out, mask, background, dt, inverseDx);
     leaves[i]->setValueMask(mask);  // own mask only: neighbours read values
   });
 }

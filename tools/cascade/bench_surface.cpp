@@ -111,6 +111,13 @@ BenchTable benchSurface() {
     SurfaceResult result = surfaceParticles(points, kSpacing, options, dir / "surface.vdb", dir / "fluid.obj");
     const double cpu = double(std::clock() - cpuStart) / CLOCKS_PER_SEC;
     rows.push_back({surfaceMethodName(method), result.timings, cpu, result.mesh.triangles.size()});
+    // CASCADE_BENCH_SURFACE_KEEP=DIR keeps the outputs as DIR/METHOD.vdb and .obj (to compare versions).
+    if (const char* keep = std::getenv("CASCADE_BENCH_SURFACE_KEEP")) {
+      fs::create_directories(keep);
+      for (const char* extension : {".vdb", ".obj"})
+        fs::copy_file(dir / (extension == std::string(".vdb") ? "surface.vdb" : "fluid.obj"),
+                      fs::path(keep) / (rows.back().method + extension), fs::copy_options::overwrite_existing);
+    }
     std::cerr << "bench surface: " << rows.back().method << " files: VDB " << fs::file_size(dir / "surface.vdb") / 1e6
               << " MB (" << result.activeVoxels << " active voxels), OBJ " << fs::file_size(dir / "fluid.obj") / 1e6
               << " MB\n";
