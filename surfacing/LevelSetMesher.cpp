@@ -1,11 +1,15 @@
 #include "surfacing/LevelSetMesher.h"
 
+#include "surfacing/DualContourMesher.h"
+
 #include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/parallel_for.h>
 
 namespace cascade::surfacing {
 
 TriangleMesh levelSetToMesh(const openvdb::FloatGrid& grid, double adaptivity) {
+  if (adaptivity <= 0) return dualContourMesh(grid);
+
   std::vector<openvdb::Vec3s> points;
   std::vector<openvdb::Vec3I> triangles;
   std::vector<openvdb::Vec4I> quads;

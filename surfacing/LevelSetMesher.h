@@ -1,9 +1,12 @@
 /// @file LevelSetMesher.h
-/// @brief The zero iso-surface of a level set as a triangle mesh: OpenVDB
-///        tools::volumeToMesh (dual contouring with sharp-feature aware
-///        adaptivity, Museth et al.), quads split along their shorter diagonal.
-///        Vertices are shared; orientation is the library's (MeshCleanup makes
-///        it outward). Internal to surfacing (includes OpenVDB).
+/// @brief The zero iso-surface of a level set as a triangle mesh. Adaptivity 0:
+///        our own dual contouring mesher (DualContourMesher.h, Nielson 2004; the
+///        same mesh as OpenVDB's volumeToMesh at adaptivity 0, several times
+///        faster), outward oriented. Adaptivity > 0: OpenVDB tools::volumeToMesh
+///        (dual contouring with sharp-feature aware adaptivity, Museth et al.),
+///        quads split along their shorter diagonal, the library's orientation
+///        (MeshCleanup makes it outward). Vertices are shared. Internal to
+///        surfacing (includes OpenVDB).
 #pragma once
 
 #include "libsph/io/TriangleMesh.h"
