@@ -21,6 +21,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
+#include <stdexcept>
 #include <vector>
 
 namespace cascade::surfacing::detail {
@@ -83,7 +85,7 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
 
   profile.lap("blocks: leaf origins");
   // (leaf, kernel) pairs: every kernel lists the leaves its support box overlaps;
-  // sorted, they give each leaf its candidates in kernel order (deterministic).
+  // grouped by leaf, they give each leaf its candidates in kernel order (deterministic).
   // Leaf origin -> index: open addressing, load factor <= 1/2 (a binary search
   // per kernel and leaf cost more than the rest of the pairing).
   auto packLeaf = [](const openvdb::Coord& origin) {  // then splitmix64's finaliser: all bits mixed
@@ -128,21 +130,40 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
       }
     }
   });
-  std::vector<std::uint64_t> pairs;
-  {
-    std::size_t total = 0;
-    for (const auto& p : chunkPairs) total += p.size();
-    pairs.reserve(total);
-    for (auto& p : chunkPairs) {
-      pairs.insert(pairs.end(), p.begin(), p.end());
-      std::vector<std::uint64_t>().swap(p);
+  // Counting sort by leaf, stable: chunks hold ascending kernels, so each leaf's
+  // candidates come out in kernel order (as a sort of the pairs would give them).
+  // Chunks are taken in groups, each group counting its own pairs per leaf and
+  // scattering them from its own offsets, in parallel.
+  const std::size_t leafCount = origins.size();
+  const std::size_t groups = std::min<std::size_t>(chunks, 8), groupChunks = (chunks + groups - 1) / groups;
+  std::vector<std::vector<std::uint32_t>> groupOffset(groups);
+  tbb::parallel_for(std::size_t(0), groups, [&](std::size_t g) {
+    std::vector<std::uint32_t>& count = groupOffset[g];
+    count.assign(leafCount, 0);
+    for (std::size_t c = g * groupChunks; c < std::min(chunks, (g + 1) * groupChunks); ++c)
+      for (std::uint64_t pair : chunkPairs[c]) ++count[pair >> 32];
+  });
+  std::vector<std::size_t> leafStart(leafCount + 1);
+  std::size_t total = 0;
+  for (std::size_t b = 0; b < leafCount; ++b) {
+    leafStart[b] = total;
+    for (std::size_t g = 0; g < groups; ++g) {  // counts become each group's first slot
+      const std::uint32_t count = groupOffset[g][b];
+      groupOffset[g][b] = std::uint32_t(total);
+      total += count;
     }
   }
-  tbb::parallel_sort(pairs.begin(), pairs.end());
-  std::vector<std::size_t> leafStart(origins.size() + 1, pairs.size());
-  for (std::size_t i = pairs.size(); i-- > 0;) leafStart[pairs[i] >> 32] = i;
-  for (std::size_t b = origins.size(); b-- > 0;)  // leaves without pairs: empty ranges
-    if (leafStart[b] > leafStart[b + 1]) leafStart[b] = leafStart[b + 1];
+  leafStart[leafCount] = total;
+  if (total >= std::numeric_limits<std::uint32_t>::max())
+    throw std::length_error("surfacing: too many (leaf, kernel) pairs");
+  std::vector<std::uint32_t> pairKernel(total);
+  tbb::parallel_for(std::size_t(0), groups, [&](std::size_t g) {
+    std::vector<std::uint32_t>& next = groupOffset[g];
+    for (std::size_t c = g * groupChunks; c < std::min(chunks, (g + 1) * groupChunks); ++c) {
+      for (std::uint64_t pair : chunkPairs[c]) pairKernel[next[pair >> 32]++] = std::uint32_t(pair & 0xffffffffu);
+      std::vector<std::uint64_t>().swap(chunkPairs[c]);
+    }
+  });
 
   profile.lap("blocks: pairs");
   std::vector<LeafT*> leaves(origins.size(), nullptr);
@@ -151,8 +172,8 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
     alignas(64) std::array<float, LeafT::SIZE> values;  // accumulate may use aligned SIMD rows
     for (std::size_t b = range.begin(); b != range.end(); ++b) {
       candidates.clear();
-      for (std::size_t i = leafStart[b]; i < leafStart[b + 1]; ++i)
-        candidates.push_back(std::uint32_t(pairs[i] & 0xffffffffu));
+      candidates.assign(pairKernel.begin() + std::ptrdiff_t(leafStart[b]),
+                        pairKernel.begin() + std::ptrdiff_t(leafStart[b + 1]));
       std::fill(values.begin(), values.end(), 0.0f);
       if (!accumulate(origins[b], candidates, values.data())) continue;
       auto* leaf = new LeafT(origins[b], 0.0f, false);
@@ -162,7 +183,7 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
   });
   profile.lap("blocks: accumulate");
   if (std::getenv("CASCADE_SURFACE_PROFILE"))
-    std::fprintf(stderr, "  profile blocks: %zu leaves, %zu (leaf, kernel) pairs\n", origins.size(), pairs.size());
+    std::fprintf(stderr, "  profile blocks: %zu leaves, %zu (leaf, kernel) pairs\n", origins.size(), pairKernel.size());
   for (LeafT* leaf : leaves)
     if (leaf) tree.addLeaf(leaf);
   profile.lap("blocks: add leaves");
