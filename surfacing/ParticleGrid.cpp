@@ -17,13 +17,6 @@ constexpr int kKeyBits = 21;
 constexpr std::int64_t kKeyRange = std::int64_t(1) << kKeyBits;
 constexpr std::uint64_t kNoKey = std::numeric_limits<std::uint64_t>::max();
 
-/// splitmix64's finaliser: every key bit reaches the low bits the table uses
-/// (a bare multiply left x out of them: whole rows of cells collided).
-std::uint64_t hashKey(std::uint64_t key) {
-  key = (key ^ (key >> 30)) * 0xBF58476D1CE4E5B9ull;
-  key = (key ^ (key >> 27)) * 0x94D049BB133111EBull;
-  return key ^ (key >> 31);
-}
 } // namespace
 
 ParticleGrid::ParticleGrid(const std::vector<Vec3r>& positions, double cellSize)
@@ -80,18 +73,23 @@ ParticleGrid::ParticleGrid(const std::vector<Vec3r>& positions, double cellSize)
   }
   mCellStart.push_back(std::uint32_t(n));
 
-  // Hash table, load factor <= 1/2.
+  // Columns (runs of cells of equal x, y) and their hash table, load factor <= 1/2.
+  for (std::size_t cell = 0; cell < mCellCoords.size(); ++cell)
+    if (cell == 0 || mCellCoords[cell].x() != mCellCoords[cell - 1].x() ||
+        mCellCoords[cell].y() != mCellCoords[cell - 1].y())
+      mColumnStart.push_back(std::uint32_t(cell));
+  const std::size_t columns = mColumnStart.size();
+  mColumnStart.push_back(std::uint32_t(mCellCoords.size()));
   std::size_t tableSize = 16;
-  while (tableSize < 2 * mCellCoords.size()) tableSize *= 2;
-  mTable.assign(tableSize, -1);
-  mTableKey.assign(tableSize, kNoKey);
+  while (tableSize < 2 * columns) tableSize *= 2;
+  mTable.assign(tableSize, ColumnSlot{});
   mTableMask = tableSize - 1;
-  for (std::size_t cell = 0; cell < mCellCoords.size(); ++cell) {
-    const std::uint64_t key = keyOf(mCellCoords[cell]);
-    std::uint64_t slot = hashKey(key) & mTableMask;
-    while (mTable[slot] >= 0) slot = (slot + 1) & mTableMask;
-    mTable[slot] = std::int64_t(cell);
-    mTableKey[slot] = key;
+  for (std::size_t column = 0; column < columns; ++column) {
+    const Coord& first = mCellCoords[mColumnStart[column]];
+    const std::uint64_t key = columnKeyOf(first.x(), first.y());
+    std::uint64_t slot = hashColumn(key) & mTableMask;
+    while (mTable[slot].key != kNoColumn) slot = (slot + 1) & mTableMask;
+    mTable[slot] = {key, column};
   }
 }
 
@@ -109,14 +107,10 @@ std::uint64_t ParticleGrid::keyOf(const Coord& coord) const {
 
 std::int64_t ParticleGrid::findCell(const Coord& coord) const {
   if (mTable.empty()) return -1;
-  const std::uint64_t key = keyOf(coord);
-  if (key == kNoKey) return -1;
-  std::uint64_t slot = hashKey(key) & mTableMask;
-  while (mTable[slot] >= 0) {
-    if (mTableKey[slot] == key) return mTable[slot];
-    slot = (slot + 1) & mTableMask;
-  }
-  return -1;
+  const std::int64_t column = findColumn(coord.x(), coord.y());
+  if (column < 0) return -1;
+  const std::uint32_t cell = firstCellFrom(std::size_t(column), coord.z());
+  return cell < mColumnStart[std::size_t(column) + 1] && mCellCoords[cell].z() == coord.z() ? std::int64_t(cell) : -1;
 }
 
 double estimateParticleSpacing(const std::vector<Vec3r>& positions) {
