@@ -1,12 +1,8 @@
 #include "surfacing/MeshCleanup.h"
 
+#include "surfacing/detail/MeshRemeshing.h"
 #include "surfacing/detail/Profile.h"
 
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/Polygon_mesh_processing/remesh.h>
-#include <CGAL/Surface_mesh.h>
-#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_stop_predicate.h>
-#include <CGAL/Surface_mesh_simplification/edge_collapse.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 #include <tbb/parallel_reduce.h>
@@ -17,9 +13,6 @@
 namespace cascade::surfacing {
 
 namespace {
-
-using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
-using CgalMesh = CGAL::Surface_mesh<Kernel::Point_3>;
 
 double tetraVolume(const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c) {
   const Eigen::Vector3d ad = a.cast<double>(), bd = b.cast<double>(), cd = c.cast<double>();
@@ -39,6 +32,33 @@ struct UnionFind {
     if (a != b) parent[std::max(a, b)] = std::min(a, b);  // deterministic roots
   }
 };
+
+/// The root (smallest vertex index) of each vertex's vertex-connected component.
+/// Union-find over two fixed halves of the triangles in parallel, then the second
+/// half's sets merged into the first's: roots are the smallest index of their
+/// set whatever the order of the unions, so the result is deterministic.
+std::vector<std::uint32_t> componentRoots(const TriangleMesh& mesh) {
+  const std::size_t half = mesh.triangles.size() / 2;
+  UnionFind first(mesh.vertices.size()), second(mesh.vertices.size());
+  auto uniteTriangles = [&](std::size_t begin, std::size_t end, UnionFind& sets) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const auto& t = mesh.triangles[i];
+      sets.unite(t[0], t[1]);
+      sets.unite(t[0], t[2]);
+    }
+  };
+  tbb::parallel_invoke([&] { uniteTriangles(0, half, first); },
+                       [&] { uniteTriangles(half, mesh.triangles.size(), second); });
+  for (std::uint32_t v = 0; v < std::uint32_t(mesh.vertices.size()); ++v) {
+    const std::uint32_t other = second.find(v);
+    if (other != v) first.unite(v, other);
+  }
+  // Roots are the smallest index of their set, so parent[v] <= v: in increasing
+  // order one step from each vertex reaches its root.
+  std::vector<std::uint32_t> root = std::move(first.parent);
+  for (std::size_t v = 0; v < root.size(); ++v) root[v] = root[root[v]];
+  return root;
+}
 
 void removeUnreferencedVertices(TriangleMesh& mesh) {
   std::vector<std::uint32_t> remap(mesh.vertices.size(), std::uint32_t(-1));
@@ -79,35 +99,6 @@ void computeVertexNormals(TriangleMesh& mesh) {
       mesh.normals[i] = length > 0 ? Eigen::Vector3f(sum / length) : Eigen::Vector3f(0, 0, 1);
     }
   });
-}
-
-CgalMesh toCgal(const TriangleMesh& mesh) {
-  CgalMesh out;
-  out.reserve(CgalMesh::size_type(mesh.vertices.size()), CgalMesh::size_type(3 * mesh.triangles.size() / 2),
-              CgalMesh::size_type(mesh.triangles.size()));
-  std::vector<CgalMesh::Vertex_index> vertex;
-  vertex.reserve(mesh.vertices.size());
-  for (const auto& p : mesh.vertices) vertex.push_back(out.add_vertex(Kernel::Point_3(p.x(), p.y(), p.z())));
-  for (const auto& t : mesh.triangles) out.add_face(vertex[t[0]], vertex[t[1]], vertex[t[2]]);  // rejects non-manifold
-  return out;
-}
-
-TriangleMesh fromCgal(const CgalMesh& mesh) {
-  TriangleMesh out;
-  std::vector<std::uint32_t> index(mesh.num_vertices() + mesh.number_of_removed_vertices(), 0);
-  for (auto v : mesh.vertices()) {
-    index[v.idx()] = std::uint32_t(out.vertices.size());
-    const auto& p = mesh.point(v);
-    out.vertices.emplace_back(float(p.x()), float(p.y()), float(p.z()));
-  }
-  for (auto f : mesh.faces()) {
-    std::array<std::uint32_t, 3> t{};
-    int k = 0;
-    for (auto v : CGAL::vertices_around_face(mesh.halfedge(f), mesh))
-      if (k < 3) t[k++] = index[v.idx()];
-    if (k == 3) out.triangles.push_back(t);
-  }
-  return out;
 }
 
 } // namespace
@@ -155,15 +146,7 @@ MeshCleanupStats cleanupMesh(TriangleMesh& mesh, const MeshCleanupSettings& sett
 
   profile.lap("cleanup: degenerate");
   // 2. Components and their volumes (relative to a local origin, for precision).
-  UnionFind components(mesh.vertices.size());
-  for (const auto& t : mesh.triangles) {
-    components.unite(t[0], t[1]);
-    components.unite(t[0], t[2]);
-  }
-  // Roots are the smallest index of their set, so parent[v] <= v: in increasing
-  // order one step from each vertex reaches its root.
-  std::vector<std::uint32_t>& root = components.parent;
-  for (std::size_t v = 0; v < root.size(); ++v) root[v] = root[root[v]];
+  std::vector<std::uint32_t> root = componentRoots(mesh);
   // Volumes: two fixed halves of the triangles in parallel, added in order.
   std::vector<double> volume(mesh.vertices.size(), 0.0), secondHalf(mesh.vertices.size(), 0.0);
   auto addVolumes = [&](std::size_t begin, std::size_t end, std::vector<double>& sum) {
@@ -210,21 +193,8 @@ MeshCleanupStats cleanupMesh(TriangleMesh& mesh, const MeshCleanupSettings& sett
   profile.lap("cleanup: unreferenced");
 
   // 4. CGAL remeshing / decimation.
-  if ((settings.remeshEdgeLength > 0 || (settings.triangleBudget > 0 &&
-                                          mesh.triangles.size() > settings.triangleBudget)) &&
-      !mesh.triangles.empty()) {
-    CgalMesh cgalMesh = toCgal(mesh);
-    if (settings.remeshEdgeLength > 0)
-      CGAL::Polygon_mesh_processing::isotropic_remeshing(faces(cgalMesh), settings.remeshEdgeLength, cgalMesh);
-    if (settings.triangleBudget > 0 && cgalMesh.number_of_faces() > settings.triangleBudget) {
-      namespace SMS = CGAL::Surface_mesh_simplification;
-      // Stops below a number of edges; a closed triangle mesh has 3/2 edges per face.
-      SMS::Count_stop_predicate<CgalMesh> stop(settings.triangleBudget * 3 / 2);
-      SMS::edge_collapse(cgalMesh, stop);
-    }
-    cgalMesh.collect_garbage();
-    mesh = fromCgal(cgalMesh);
-  }
+  if (settings.remeshEdgeLength > 0 || (settings.triangleBudget > 0 && mesh.triangles.size() > settings.triangleBudget))
+    detail::remeshAndDecimate(mesh, settings.remeshEdgeLength, settings.triangleBudget);
 
   // 5. Normals.
   computeVertexNormals(mesh);

@@ -15,6 +15,8 @@
 
 #include <tbb/parallel_pipeline.h>
 
+#include <fcntl.h>
+
 namespace cascade {
 
 void TriangleMesh::computeNormals() {
@@ -192,7 +194,8 @@ constexpr std::size_t kObjBlockLines = 16384;
 constexpr std::size_t kObjBlocksInFlight = 8;
 constexpr std::size_t kMaxVectorLine = 4 + 3 * 33 + 1;    // "vn" and three floats
 constexpr std::size_t kMaxFaceLine = 2 + 3 * (2 * 20 + 3) + 1;
-constexpr std::size_t kObjLineSlack = 32;  // fixed-size stores run up to 16 bytes past a line's end
+constexpr std::size_t kObjLineSlack = 32;
+constexpr std::size_t kObjWritebackChunk = std::size_t(32) << 20;  // bytes  // fixed-size stores run up to 16 bytes past a line's end
 
 } // namespace
 
@@ -298,7 +301,9 @@ void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const
     std::setvbuf(file.get(), nullptr, _IONBF, 0);  // whole blocks go straight to write(2)
     bool failed = std::fwrite(header.data(), 1, header.size(), file.get()) != header.size();
     // Format blocks in parallel, write them in file order; a few blocks in flight bound the memory.
-    std::size_t next = 0;
+    // Writeback of each written chunk starts at once (sync_file_range), so the disk works while
+    // later blocks are formatted and the closing fsync (writeFileAtomically) has little left to wait for.
+    std::size_t next = 0, written = header.size(), syncedFrom = 0;
     tbb::parallel_pipeline(
         kObjBlocksInFlight,
         tbb::make_filter<void, ObjBlock*>(tbb::filter_mode::serial_in_order,
@@ -316,6 +321,12 @@ void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const
                                                    }) &
             tbb::make_filter<ObjBlock*, void>(tbb::filter_mode::serial_in_order, [&](ObjBlock* block) {
               if (!failed && std::fwrite(block->text, 1, block->size, file.get()) != block->size) failed = true;
+              written += block->size;
+              if (written - syncedFrom >= kObjWritebackChunk) {  // start writeback, don't wait for it
+                ::sync_file_range(::fileno(file.get()), off64_t(syncedFrom), off64_t(written - syncedFrom),
+                                  SYNC_FILE_RANGE_WRITE);
+                syncedFrom = written;
+              }
             }));
     if (failed || std::fflush(file.get()) != 0) throw std::runtime_error(path.string() + ": write failed");
   });
