@@ -3,19 +3,18 @@
 #include "libsph/Errors.h"
 
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 namespace cascade::surfacing {
 
 namespace {
 constexpr int kKeyBits = 21;
 constexpr std::int64_t kKeyRange = std::int64_t(1) << kKeyBits;
-constexpr std::uint64_t kNoKey = std::numeric_limits<std::uint64_t>::max();
 
 } // namespace
 
@@ -50,25 +49,45 @@ ParticleGrid::ParticleGrid(const std::vector<Vec3r>& positions, double cellSize)
     throw InputError("particles span more than 2^21 cells of the surfacing grid along an axis");
   mOrigin = lo - Coord::Ones();  // keep neighbours of border cells in range
 
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(n);
+  // Sort by cell, ties by index: a stable LSD radix sort (11-bit digits) of the
+  // dense cell number ((x * ny) + y) * nz + z over the bounds, whose order is the
+  // (x, y, z) order of the cells.
+  const Eigen::Matrix<std::uint64_t, 3, 1> extent = (hi - lo).cast<std::uint64_t>().array() + 1;
+  std::vector<std::uint64_t> key(n), keyScratch(n);
+  std::vector<std::uint32_t> order(n), orderScratch(n);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i)
-      keyed[i] = {keyOf(coords[i]), std::uint32_t(i)};
-  });
-  tbb::parallel_sort(keyed.begin(), keyed.end());
-
-  mSortedIndex.resize(n);
-  mSortedPosition.resize(n);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
-    for (std::size_t k = range.begin(); k != range.end(); ++k) {
-      mSortedIndex[k] = keyed[k].second;
-      mSortedPosition[k] = positions[keyed[k].second];
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const Eigen::Matrix<std::uint64_t, 3, 1> c = (coords[i] - lo).cast<std::uint64_t>();
+      key[i] = (c.x() * extent.y() + c.y()) * extent.z() + c.z();
+      order[i] = std::uint32_t(i);
     }
   });
+  const std::uint64_t largestKey = extent.prod() - 1;  // < 2^63: every extent is below 2^21
+  constexpr int kDigitBits = 11;
+  constexpr std::size_t kDigits = std::size_t(1) << kDigitBits;
+  for (int shift = 0; shift < 64 && (largestKey >> shift) != 0; shift += kDigitBits) {
+    std::vector<std::uint32_t> next(kDigits, 0);
+    for (std::size_t i = 0; i < n; ++i) ++next[(key[i] >> shift) & (kDigits - 1)];
+    std::uint32_t total = 0;
+    for (std::uint32_t& slot : next) total += std::exchange(slot, total);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::uint32_t to = next[(key[i] >> shift) & (kDigits - 1)]++;
+      keyScratch[to] = key[i];
+      orderScratch[to] = order[i];
+    }
+    key.swap(keyScratch);
+    order.swap(orderScratch);
+  }
+
+  mSortedIndex = std::move(order);
+  mSortedPosition.resize(n);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
+    for (std::size_t k = range.begin(); k != range.end(); ++k) mSortedPosition[k] = positions[mSortedIndex[k]];
+  });
   for (std::size_t k = 0; k < n; ++k) {
-    if (k == 0 || keyed[k].first != keyed[k - 1].first) {
+    if (k == 0 || key[k] != key[k - 1]) {
       mCellStart.push_back(std::uint32_t(k));
-      mCellCoords.push_back(coords[keyed[k].second]);
+      mCellCoords.push_back(coords[mSortedIndex[k]]);
     }
   }
   mCellStart.push_back(std::uint32_t(n));
@@ -97,12 +116,6 @@ ParticleGrid::Coord ParticleGrid::cellOf(const Vec3r& point) const {
   const double inverse = 1.0 / mCellSize;
   return Coord(int(std::floor(double(point.x()) * inverse)), int(std::floor(double(point.y()) * inverse)),
                int(std::floor(double(point.z()) * inverse)));
-}
-
-std::uint64_t ParticleGrid::keyOf(const Coord& coord) const {
-  const Eigen::Matrix<std::int64_t, 3, 1> c = (coord - mOrigin).cast<std::int64_t>();
-  if ((c.array() < 0).any() || (c.array() >= kKeyRange).any()) return kNoKey;
-  return (std::uint64_t(c.x()) << (2 * kKeyBits)) | (std::uint64_t(c.y()) << kKeyBits) | std::uint64_t(c.z());
 }
 
 std::int64_t ParticleGrid::findCell(const Coord& coord) const {

@@ -78,7 +78,6 @@ public:
   }
 
 private:
-  std::uint64_t keyOf(const Coord& coord) const;
   /// Index of the column of cells at (x, y), or -1 if it has none.
   std::int64_t findColumn(int x, int y) const {
     const std::uint64_t key = columnKeyOf(x, y);

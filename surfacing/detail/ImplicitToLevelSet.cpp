@@ -9,13 +9,127 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 
 namespace cascade::surfacing::detail {
+
+namespace {
+
+/// Leaf i of `input` and the face layers of its six neighbours into `f` (the
+/// stencil below reads no edge or corner of the padding): whole 8-float rows
+/// along z where the source has them.
+void gatherFaces(const LeafNeighborhoods& input, std::size_t i, PaddedLeaf& f) {
+  constexpr int D = kLeafDim;
+  auto rows = [&](int n) -> const float* {
+    const FloatLeaf* leaf = input.neighbor[i][std::size_t(n)];
+    return leaf ? leaf->buffer().data() : nullptr;
+  };
+  const float* centre = rows(13);
+  for (int x = 0; x < D; ++x)
+    for (int y = 0; y < D; ++y) std::memcpy(&f[x + 1][y + 1][1], centre + ((x << 6) | (y << 3)), D * sizeof(float));
+  // x faces (n = 4, 22) and y faces (n = 10, 16): rows along z; z faces (n = 12, 14): single values.
+  for (int side = 0; side < 2; ++side) {
+    const int n = side ? 22 : 4, from = side ? 0 : D - 1, to = side ? D + 1 : 0;
+    if (const float* v = rows(n)) {
+      for (int y = 0; y < D; ++y) std::memcpy(&f[to][y + 1][1], v + ((from << 6) | (y << 3)), D * sizeof(float));
+    } else {
+      for (int y = 0; y < D; ++y) std::fill_n(&f[to][y + 1][1], D, input.tileValue[i][std::size_t(n)]);
+    }
+  }
+  for (int side = 0; side < 2; ++side) {
+    const int n = side ? 16 : 10, from = side ? 0 : D - 1, to = side ? D + 1 : 0;
+    if (const float* v = rows(n)) {
+      for (int x = 0; x < D; ++x) std::memcpy(&f[x + 1][to][1], v + ((x << 6) | (from << 3)), D * sizeof(float));
+    } else {
+      for (int x = 0; x < D; ++x) std::fill_n(&f[x + 1][to][1], D, input.tileValue[i][std::size_t(n)]);
+    }
+  }
+  for (int side = 0; side < 2; ++side) {
+    const int n = side ? 14 : 12, from = side ? 0 : D - 1, to = side ? D + 1 : 0;
+    const float* v = rows(n);
+    const float tile = input.tileValue[i][std::size_t(n)];
+    for (int x = 0; x < D; ++x)
+      for (int y = 0; y < D; ++y) f[x + 1][y + 1][to] = v ? v[(x << 6) | (y << 3) | from] : tile;
+  }
+}
+
+/// The constants of the stencil.
+struct Stencil {
+  float iso, sign, background, inverse2dx, inverseDx;
+};
+
+/// The signed distance estimate of one leaf from its padded field values `f` into
+/// `out`, with the mask of |phi| < background. Compiled for AVX2 and for the
+/// baseline; both give the same bits (the same IEEE operations, no contraction).
+__attribute__((target_clones("avx2", "default")))
+void levelSetLeaf(const PaddedLeaf& f, float* out, FloatLeaf::NodeMaskType& mask, const Stencil& stencil) {
+  constexpr int D = kLeafDim;
+  const float undefined = kUndefinedField;
+  const float iso = stencil.iso, sign = stencil.sign, background = stencil.background;
+  const float inverse2dx = stencil.inverse2dx, inverseDx = stencil.inverseDx;
+  for (int x = 1; x <= D; ++x)
+    for (int y = 1; y <= D; ++y) {
+      const float* c = &f[x][y][1];
+      const float *xm = &f[x - 1][y][1], *xp = &f[x + 1][y][1], *ym = &f[x][y - 1][1], *yp = &f[x][y + 1][1];
+      float rowLargest = std::max(c[-1], c[D]);
+      for (int z = 0; z < D; ++z)
+        rowLargest = std::max(rowLargest, std::max(std::max(c[z], xm[z]), std::max(std::max(xp[z], ym[z]), yp[z])));
+      if (rowLargest < undefined) {
+        // The usual row: every value it needs defined, central differences throughout
+        // (the same arithmetic as below, without a branch per voxel).
+        float* o = out + (((x - 1) << 6) | ((y - 1) << 3));
+        for (int z = 0; z < D; ++z) {
+          const float gx = (xp[z] - xm[z]) * inverse2dx, gy = (yp[z] - ym[z]) * inverse2dx,
+                      gz = (c[z + 1] - c[z - 1]) * inverse2dx;
+          const float gradient = std::sqrt(gx * gx + gy * gy + gz * gz);
+          const float difference = sign * (c[z] - iso);
+          const float far = difference >= 0 ? background : -background;
+          const float distance = gradient > 0 ? difference / (gradient > 0 ? gradient : 1.0f) : far;
+          o[z] = std::abs(distance) < background ? distance : (distance > 0 ? background : -background);
+        }
+        std::uint64_t rowBits = 0;
+        for (int z = 0; z < D; ++z) rowBits |= std::uint64_t(std::abs(o[z]) < background) << z;
+        mask.getWord<std::uint64_t>(openvdb::Index(x - 1)) |= rowBits << ((y - 1) << 3);
+        continue;
+      }
+      for (int z = 1; z <= D; ++z) {
+        const int offset = ((x - 1) << 6) | ((y - 1) << 3) | (z - 1);
+        const float value = f[x][y][z];
+        if (value >= undefined) {
+          out[offset] = background;
+          continue;
+        }
+        // Central differences, one-sided next to undefined values.
+        auto derivative = [&](float minus, float plus) {
+          const bool hasMinus = minus < undefined, hasPlus = plus < undefined;
+          if (hasMinus && hasPlus) return (plus - minus) * inverse2dx;
+          if (hasPlus) return (plus - value) * inverseDx;
+          if (hasMinus) return (value - minus) * inverseDx;
+          return 0.0f;
+        };
+        const float gx = derivative(f[x - 1][y][z], f[x + 1][y][z]);
+        const float gy = derivative(f[x][y - 1][z], f[x][y + 1][z]);
+        const float gz = derivative(f[x][y][z - 1], f[x][y][z + 1]);
+        const float gradient = std::sqrt(gx * gx + gy * gy + gz * gz);
+        const float difference = sign * (value - iso);
+        float distance;
+        if (gradient > 0) distance = difference / gradient;
+        else distance = difference >= 0 ? background : -background;
+        if (std::abs(distance) < background) {
+          out[offset] = distance;
+          mask.setOn(openvdb::Index(offset));
+        } else {
+          out[offset] = distance > 0 ? background : -background;
+        }
+      }
+    }
+}
+
+} // namespace
 
 openvdb::FloatGrid::Ptr implicitToLevelSet(const openvdb::FloatTree& field, float iso, bool insideAbove,
                                            double voxelSize, int halfWidth) {
   using LeafT = openvdb::FloatTree::LeafNodeType;
-  constexpr int D = kLeafDim;
   const float background = float(halfWidth * voxelSize);
   auto tree = std::make_shared<openvdb::FloatTree>(field, background, openvdb::TopologyCopy());
   const float inverse2dx = float(0.5 / voxelSize), inverseDx = float(1 / voxelSize);
@@ -23,71 +137,15 @@ openvdb::FloatGrid::Ptr implicitToLevelSet(const openvdb::FloatTree& field, floa
   const LeafNeighborhoods input(field, kUndefinedField);
   std::vector<LeafT*> leaves;
   tree->getNodes(leaves);  // same topology, same order as input.leaves
-  const float sign = insideAbove ? -1.0f : 1.0f;
+  const Stencil stencil{iso, insideAbove ? -1.0f : 1.0f, background, inverse2dx, inverseDx};
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 16), [&](const auto& range) {
-    PaddedLeaf f;
-    const float undefined = kUndefinedField;
+    PaddedLeaf f = {};  // edges and corners stay unused
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      input.gather(i, f);
+      gatherFaces(input, i, f);
       LeafT& leaf = *leaves[i];
       float* out = leaf.buffer().data();
       LeafT::NodeMaskType mask;
-      for (int x = 1; x <= D; ++x)
-        for (int y = 1; y <= D; ++y) {
-          const float* c = &f[x][y][1];
-          const float *xm = &f[x - 1][y][1], *xp = &f[x + 1][y][1], *ym = &f[x][y - 1][1], *yp = &f[x][y + 1][1];
-          float rowLargest = std::max(c[-1], c[D]);
-          for (int z = 0; z < D; ++z)
-            rowLargest = std::max(rowLargest, std::max(std::max(c[z], xm[z]), std::max(std::max(xp[z], ym[z]), yp[z])));
-          if (rowLargest < undefined) {
-            // The usual row: every value it needs defined, central differences throughout
-            // (the same arithmetic as below, without a branch per voxel).
-            float* o = out + (((x - 1) << 6) | ((y - 1) << 3));
-            for (int z = 0; z < D; ++z) {
-              const float gx = (xp[z] - xm[z]) * inverse2dx, gy = (yp[z] - ym[z]) * inverse2dx,
-                          gz = (c[z + 1] - c[z - 1]) * inverse2dx;
-              const float gradient = std::sqrt(gx * gx + gy * gy + gz * gz);
-              const float difference = sign * (c[z] - iso);
-              const float far = difference >= 0 ? background : -background;
-              const float distance = gradient > 0 ? difference / (gradient > 0 ? gradient : 1.0f) : far;
-              o[z] = std::abs(distance) < background ? distance : (distance > 0 ? background : -background);
-            }
-            std::uint64_t rowBits = 0;
-            for (int z = 0; z < D; ++z) rowBits |= std::uint64_t(std::abs(o[z]) < background) << z;
-            mask.getWord<std::uint64_t>(openvdb::Index(x - 1)) |= rowBits << ((y - 1) << 3);
-            continue;
-          }
-          for (int z = 1; z <= D; ++z) {
-            const int offset = ((x - 1) << 6) | ((y - 1) << 3) | (z - 1);
-            const float value = f[x][y][z];
-            if (value >= undefined) {
-              out[offset] = background;
-              continue;
-            }
-            // Central differences, one-sided next to undefined values.
-            auto derivative = [&](float minus, float plus) {
-              const bool hasMinus = minus < undefined, hasPlus = plus < undefined;
-              if (hasMinus && hasPlus) return (plus - minus) * inverse2dx;
-              if (hasPlus) return (plus - value) * inverseDx;
-              if (hasMinus) return (value - minus) * inverseDx;
-              return 0.0f;
-            };
-            const float gx = derivative(f[x - 1][y][z], f[x + 1][y][z]);
-            const float gy = derivative(f[x][y - 1][z], f[x][y + 1][z]);
-            const float gz = derivative(f[x][y][z - 1], f[x][y][z + 1]);
-            const float gradient = std::sqrt(gx * gx + gy * gy + gz * gz);
-            const float difference = sign * (value - iso);
-            float distance;
-            if (gradient > 0) distance = difference / gradient;
-            else distance = difference >= 0 ? background : -background;
-            if (std::abs(distance) < background) {
-              out[offset] = distance;
-              mask.setOn(openvdb::Index(offset));
-            } else {
-              out[offset] = distance > 0 ? background : -background;
-            }
-          }
-        }
+      levelSetLeaf(f, out, mask, stencil);
       leaf.setValueMask(mask);
     }
   });
