@@ -1,4 +1,5 @@
 #include "surfacing/AnisotropicKernels.h"
+#include "surfacing/detail/NeighborsWithin.h"
 
 #include <Eigen/Eigenvalues>
 #include <tbb/parallel_for.h>
@@ -88,11 +89,13 @@ AnisotropicKernels computeAnisotropicKernels(const ParticleGrid& grid,
       near.clear();
       grid.forEachInNeighborCells(grid.cellCoord(cell), [&](std::uint32_t k) { near.push_back(k); });
       const std::size_t m = near.size();
-      nearX.resize(m);
-      nearY.resize(m);
-      nearZ.resize(m);
-      nearR2.resize(m);
-      nearWithin.resize(m + 1);
+      const std::size_t padded = m + detail::kNeighborsWithinPadding;
+      near.resize(padded, 0);
+      nearX.resize(padded);
+      nearY.resize(padded);
+      nearZ.resize(padded);
+      nearR2.resize(padded);
+      nearWithin.resize(padded);
       for (std::size_t c = 0; c < m; ++c) {
         const Eigen::Vector3f p = position[near[c]].template cast<float>();
         nearX[c] = p.x();
@@ -104,28 +107,21 @@ AnisotropicKernels computeAnisotropicKernels(const ParticleGrid& grid,
         const Eigen::Vector3d xi = position[i].cast<double>();
         const Eigen::Vector3f xf = position[i].cast<float>();
         const float px = xf.x(), py = xf.y(), pz = xf.z();
-        const float* __restrict cx = nearX.data();
-        const float* __restrict cy = nearY.data();
-        const float* __restrict cz = nearZ.data();
-        float* __restrict r2s = nearR2.data();
-        for (std::size_t c = 0; c < m; ++c) {
-          const float ox = cx[c] - px, oy = cy[c] - py, oz = cz[c] - pz;
-          r2s[c] = ox * ox + oy * oy + oz * oz;
-        }
-        // The neighbours, in candidate order, without a branch per candidate.
-        std::uint32_t* __restrict within = nearWithin.data();
-        std::size_t neighbors = 0;
-        for (std::size_t c = 0; c < m; ++c) {
-          within[neighbors] = std::uint32_t(c);
-          neighbors += std::size_t((r2s[c] < radius2) & (near[c] != i));
-        }
+        const float* cx = nearX.data();
+        const float* cy = nearY.data();
+        const float* cz = nearZ.data();
+        // The neighbours (candidate order) and their squared distances.
+        const std::uint32_t* within = nearWithin.data();
+        const float* r2s = nearR2.data();
+        const std::size_t neighbors = detail::neighborsWithin(cx, cy, cz, near.data(), m, px, py, pz, radius2, i,
+                                                              nearWithin.data(), nearR2.data());
         float weightSumF = 0;
         Eigen::Vector3f weightedSumF = Eigen::Vector3f::Zero();
         float xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0;
         int count = 0;
         for (std::size_t n = 0; n < neighbors; ++n) {
           const std::uint32_t c = within[n];
-          const float r2 = r2s[c];
+          const float r2 = r2s[n];
           const Eigen::Vector3f offset(cx[c] - px, cy[c] - py, cz[c] - pz);
           const float q = std::sqrt(r2) * inverseRadius;
           const float w = 1 - q * q * q;  // Yu & Turk eq. 11

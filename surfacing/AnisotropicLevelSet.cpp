@@ -57,10 +57,10 @@ void accumulateLeaf(const AnisotropicKernels& kernels, const openvdb::Coord& ori
       float ab = column.dot(stepZ), aa = column.squaredNorm();
       float aaStep = 2 * column.dot(stepY) + 0.5f * yy2;
       for (int y = lo.y(); y <= hi.y(); ++y, ab += yz, aa += aaStep, aaStep += yy2) {
-        // |a + z stepZ|^2 < 1 for some z: else the row misses the support.
-        if (ab * ab - bb * (aa - 1) <= 0) continue;
-        // The whole row of the leaf, branch free (voxels outside the support add 0):
-        // cheaper than finding the row's ends for the 2-3 voxels a row usually has.
+        // Every row of the support's box, and the whole row of the leaf, branch free
+        // (voxels outside the support add 0): a test whether the row meets the
+        // support (|a + z stepZ|^2 < 1 for some z) cost more in mispredicted
+        // branches than the ~25 % of rows it skipped.
         // |q|^2 = |a|^2 + 2 z a.stepZ + z^2 |stepZ|^2: one multiply-add per voxel
         // instead of three components squared.
         float* row = out + (((x - origin.x()) << 6) | ((y - origin.y()) << 3));
