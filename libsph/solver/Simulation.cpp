@@ -301,7 +301,10 @@ double Simulation::computeTimeStep() const {
   const double nu = mSettings.fluid.viscosity / mSettings.fluid.restDensity;
   if (nu > 0) dt = std::min(dt, 0.125 * h * h / nu);
   const double forceFactor = mTimeStep->needs(mSettings, mConstants).forceStepFactor;
-  if (mLastMaxAcceleration > 0) dt = std::min(dt, forceFactor * std::sqrt(h / double(mLastMaxAcceleration)));
+  // Gravity acts on every particle: a bound on the first step too (before any step's
+  // acceleration is known; a 5 ms first step launched a resting 72-layer DFSPH column).
+  const double maxAcceleration = std::max(double(mLastMaxAcceleration), double(solver.gravity.norm()));
+  if (maxAcceleration > 0) dt = std::min(dt, forceFactor * std::sqrt(h / maxAcceleration));
   // Boundary layer resolution (weakly compressible strategies with type I particles):
   // no particle may cross more than half the repulsion radius r0 of SEED (11) in one
   // step, or it jumps over the repulsion layer and through the wall. With the default

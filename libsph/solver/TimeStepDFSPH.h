@@ -27,7 +27,11 @@
 ///      rho*_i = rho_i + dt D rho_i/Dt (only compression corrected),
 ///      kappa_i = (rho*_i / rho_0 - 1) alpha_i / dt^2, the same velocity update,
 ///      until the mean (rho*_i - rho_0) / rho_0 is below densityTolerance (at least
-///      one sweep after the warm start, at most maxIterations);
+///      one sweep after the warm start, at most maxIterations); the sweeps are
+///      under-relaxed (omega = 0.6) with a momentum term (beta = 0.5 x the particle's
+///      last increment): unrelaxed sweeps overshoot, which a compression-only solve
+///      cannot take back, and left a resting tall column's pressure ringing from step
+///      to step (issue 7; constants and measurements in TimeStepDFSPH.cpp);
 ///   5. x += dt v (symplectic Euler).
 /// Each Jacobi sweep is two passes over the pair terms: apply the increments
 /// (v_i -= dt (s_i G_i + sum_j s_j V grad W_ij), G_i = sum_j V grad W_ij) and the
@@ -39,8 +43,8 @@
 /// part, no extra pass), kept per particle through reorders, removals and
 /// checkpoints (the whole stiffness oscillates from step to step, measured). Reported
 /// pressure p_i = (kappa_i + kappa^v_i) rho_i^2 / rho_0 (from
-/// a_i = -sum_j m (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij); it changes from step to
-/// step (a multiplier of a solve stopped at a tolerance): its time mean is hydrostatic.
+/// a_i = -sum_j m (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij); in resting water it is
+/// hydrostatic step by step (floor pressure within about 1 % of rho g H, 36-72 layers).
 ///
 /// Boundaries: the SEED's type II mirror particles (Libersky & Petschke 1993),
 /// rebuilt each step by the Simulation for the fluid within kappa h of a wall,
