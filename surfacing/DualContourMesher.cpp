@@ -1,13 +1,17 @@
 #include "surfacing/DualContourMesher.h"
 
+#include "surfacing/detail/Profile.h"
+
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #if defined(__SSE2__)
 #include <emmintrin.h>
+#include <xmmintrin.h>
 #endif
 #include <cassert>
+#include <type_traits>
 #include <vector>
 
 namespace cascade::surfacing {
@@ -152,6 +156,28 @@ struct BlockVoxels {
     return bits;
 #endif
   }
+  /// All corner values of the block's cells: corners[x][y][z], each 0..8.
+  void gather(float (&corners)[9][9][9]) const {
+    auto line = [](const float* from, float tile, float* to, int n) {  // n values, or the tile
+      if (from) std::copy(from, from + n, to);
+      else std::fill(to, to + n, tile);
+    };
+    auto at = [this](int o, int offset) { return data[o] ? data[o] + offset : nullptr; };
+    for (int x = 0; x < 8; ++x) {
+      for (int y = 0; y < 8; ++y) {
+        line(at(0, x << 6 | y << 3), tile[0], corners[x][y], 8);
+        corners[x][y][8] = data[4] ? data[4][x << 6 | y << 3] : tile[4];
+      }
+      line(at(2, x << 6), tile[2], corners[x][8], 8);
+      corners[x][8][8] = data[6] ? data[6][x << 6] : tile[6];
+    }
+    for (int y = 0; y < 8; ++y) {
+      line(at(1, y << 3), tile[1], corners[8][y], 8);
+      corners[8][y][8] = data[5] ? data[5][y << 3] : tile[5];
+    }
+    line(at(3, 0), tile[3], corners[8][8], 8);
+    corners[8][8][8] = data[7] ? data[7][0] : tile[7];
+  }
   /// Inside bits of the corner row (x, y), x and y in 0..8: bit z for z = 0..8.
   unsigned cornerRow(int x, int y) const {
     const int o = (x >> 3) | (y >> 3) << 1;
@@ -184,18 +210,30 @@ inline std::size_t popcount(std::uint64_t word) {
   return std::size_t((word * 0x0101010101010101ull) >> 56);
 }
 
-/// Offset in a leaf buffer of corner n of a cell.
-constexpr int kCornerOffset[8] = {0, 64, 8, 72, 1, 65, 9, 73};
+/// Offset of corner n of a cell in a [9][9][9] array of corner values.
+constexpr int kCornerOffset[8] = {0, 81, 9, 90, 1, 82, 10, 91};
 
-/// Per table entry and group: the sum of the group's edges' start corners and 1 / edge count.
+/// Per table entry and group: the sum of the group's edges' start corners (x, y, z, 0) and 1 / edge count.
 struct GroupGeometry {
-  float baseSum[4][3] = {};
-  double inverseCount[4] = {};
+  float baseSum[4][4] = {};
+  float inverseCount[4] = {};
 };
+
+#if defined(__SSE2__)
+/// Lane i all ones when bit i is set.
+const __m128 kLaneMask[16] = {
+#define CASCADE_LANES(m) \
+  _mm_castsi128_ps(_mm_setr_epi32(-((m) & 1), -((m) >> 1 & 1), -((m) >> 2 & 1), -((m) >> 3 & 1)))
+    CASCADE_LANES(0),  CASCADE_LANES(1),  CASCADE_LANES(2),  CASCADE_LANES(3),  CASCADE_LANES(4),  CASCADE_LANES(5),
+    CASCADE_LANES(6),  CASCADE_LANES(7),  CASCADE_LANES(8),  CASCADE_LANES(9),  CASCADE_LANES(10), CASCADE_LANES(11),
+    CASCADE_LANES(12), CASCADE_LANES(13), CASCADE_LANES(14), CASCADE_LANES(15),
+#undef CASCADE_LANES
+};
+#endif
 
 struct CellEntry {
   std::uint32_t firstVertex;  ///< in the mesh
-  std::uint32_t config;       ///< table index (config, + 256 when its flip face is flipped)
+  std::uint32_t groups;       ///< group of edge e in bits 2e, 2e + 1
 };
 
 /// One 8^3 block of cells (a leaf, or a missing leaf on a leaf's -x/-y/-z side).
@@ -218,18 +256,22 @@ constexpr int kQuadCells[3][4][3] = {
 };
 
 /// Visits the edges starting in a block (start local 0..7) with a sign change:
-/// visit(start cell index, axis, inside at the start).
+/// visit(std::integral_constant<int, axis>, start cell index, inside at the start).
 template <class Visit>
 void forEachSignChange(const std::uint16_t (&rows)[9][9], const Visit& visit) {
+  auto along = [&visit](auto axis, unsigned bits, int start, unsigned row) {
+    for (; bits; bits &= bits - 1) {
+      const int z = __builtin_ctz(bits);
+      visit(axis, start | z, (row >> z & 1u) != 0);
+    }
+  };
   for (int x = 0; x < 8; ++x)
     for (int y = 0; y < 8; ++y) {
       const unsigned row = rows[x][y];
-      const unsigned changes[3] = {(row ^ rows[x + 1][y]) & 0xFFu, (row ^ rows[x][y + 1]) & 0xFFu, (row ^ row >> 1) & 0xFFu};
-      for (int axis = 0; axis < 3; ++axis)
-        for (unsigned bits = changes[axis]; bits; bits &= bits - 1) {
-          const int z = __builtin_ctz(bits);
-          visit(x << 6 | y << 3 | z, axis, (row >> z & 1u) != 0);
-        }
+      const int start = x << 6 | y << 3;
+      along(std::integral_constant<int, 0>(), (row ^ rows[x + 1][y]) & 0xFFu, start, row);
+      along(std::integral_constant<int, 1>(), (row ^ rows[x][y + 1]) & 0xFFu, start, row);
+      along(std::integral_constant<int, 2>(), (row ^ row >> 1) & 0xFFu, start, row);
     }
 }
 
@@ -249,12 +291,16 @@ public:
         for (int a = 0; a < 3; ++a) geometry.baseSum[g][a] += float(mEdgeCorner0[e] >> a & 1);
         ++samples[g];
       }
-      for (int g = 0; g < groups.groupCount; ++g) geometry.inverseCount[g] = 1.0 / samples[g];
+      for (int g = 0; g < groups.groupCount; ++g) geometry.inverseCount[g] = 1.0f / float(samples[g]);
+      mPackedGroups[config] = 0;
+      for (int e = 0; e < 12; ++e) mPackedGroups[config] |= std::uint32_t(groups.group[std::size_t(e)]) << (2 * e);
     }
   }
 
   TriangleMesh run() {
+    detail::ProfileClock profile;
     collectBlocks();
+    profile.lap("mesh: blocks");
     auto forBlocks = [this](std::size_t grain, const auto& body) {
       tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mBlocks.size(), grain), [&](const auto& range) {
         Accessor accessor(mTree);
@@ -262,6 +308,7 @@ public:
       });
     };
     forBlocks(16, [this](const Accessor& accessor, std::size_t b) { countBlock(accessor, mBlocks[b]); });
+    profile.lap("mesh: count");
     mCellBase.assign(mBlocks.size() + 1, 0);
     mVertexBase.assign(mBlocks.size() + 1, 0);
     mQuadBase.assign(mBlocks.size() + 1, 0);
@@ -274,36 +321,81 @@ public:
     mesh.vertices.resize(mVertexBase.back());
     mesh.triangles.resize(2 * mQuadBase.back());
     mCells.resize(mCellBase.back());
+    profile.lap("mesh: allocate");
     forBlocks(16, [&](const Accessor& accessor, std::size_t b) { placeVertices(accessor, b, mesh.vertices); });
+    profile.lap("mesh: vertices");
     forBlocks(16, [&](const Accessor&, std::size_t b) { writeTriangles(b, mesh); });
+    profile.lap("mesh: triangles");
     return mesh;
   }
 
 private:
-  /// Every leaf and every missing leaf at -8 (0/1, 0/1, 0/1) from one, sorted by origin.
+  /// Every leaf and every missing leaf at -8 (0/1, 0/1, 0/1) from one, sorted by origin
+  /// (x major), with their -x/-y/-z neighbours' indices.
   void collectBlocks() {
     std::vector<const FloatLeaf*> leaves;
     mTree.getNodes(leaves);
-    std::vector<Coord> origins(8 * leaves.size());
+    if (leaves.empty()) return;
+    Coord low = leaves[0]->origin(), high = low;
+    for (const FloatLeaf* leaf : leaves) {
+      low.minComponent(leaf->origin());
+      high.maxComponent(leaf->origin());
+    }
+    low.offset(-16);  // blocks reach 8 below the leaves, their neighbours' keys 16
+    constexpr int kBits = 21;  // per axis, in leaf units: origins as one sortable integer
+    const Coord span = high - low;
+    if (std::max({span.x(), span.y(), span.z()}) / 8 < (1 << kBits)) {
+      // Grouped by 16^3 leaves (the tree's lower internal nodes), then x major:
+      // neighbouring blocks lie close in memory. Any block at -8 (0/1, 0/1, 0/1) sorts before.
+      constexpr int kNode = kBits - 4;
+      auto key = [low](const Coord& c) {
+        const std::uint64_t x = std::uint64_t((c.x() - low.x()) / 8), y = std::uint64_t((c.y() - low.y()) / 8),
+                            z = std::uint64_t((c.z() - low.z()) / 8);
+        return (x >> 4) << (12 + 2 * kNode) | (y >> 4) << (12 + kNode) | (z >> 4) << 12 | (x & 15) << 8 |
+               (y & 15) << 4 | (z & 15);
+      };
+      auto origin = [low](std::uint64_t k) {
+        constexpr std::uint64_t mask = (std::uint64_t(1) << kNode) - 1;
+        const int x = int((k >> (12 + 2 * kNode)) << 4 | (k >> 8 & 15)), y = int((k >> (12 + kNode) & mask) << 4 | (k >> 4 & 15)),
+                  z = int((k >> 12 & mask) << 4 | (k & 15));
+        return low.offsetBy(8 * x, 8 * y, 8 * z);
+      };
+      collectBlocksBy(leaves, key, origin, [key, origin](std::uint64_t k, int o) {
+        return key(origin(k).offsetBy(-8 * (o & 1), -8 * (o >> 1 & 1), -8 * (o >> 2 & 1)));
+      });
+    } else {  // a grid over 16 M voxels wide: sort the coordinates themselves
+      collectBlocksBy(leaves, [](const Coord& c) { return c; }, [](const Coord& c) { return c; },
+                      [](const Coord& c, int o) { return c.offsetBy(-8 * (o & 1), -8 * (o >> 1 & 1), -8 * (o >> 2 & 1)); });
+    }
+  }
+
+  /// collectBlocks with origins as sortable keys (key(origin), origin(key), the key
+  /// of the block at -8 (o & 1, o >> 1 & 1, o >> 2 & 1), which sorts before).
+  template <class ToKey, class ToOrigin, class NeighborKey>
+  void collectBlocksBy(const std::vector<const FloatLeaf*>& leaves, const ToKey& key, const ToOrigin& origin,
+                       const NeighborKey& neighborKey) {
+    using Key = std::decay_t<decltype(key(Coord()))>;
+    std::vector<Key> keys(8 * leaves.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 256), [&](const auto& range) {
-      for (std::size_t i = range.begin(); i != range.end(); ++i)
-        for (int o = 0; o < 8; ++o)
-          origins[8 * i + std::size_t(o)] = leaves[i]->origin().offsetBy(-8 * (o & 1), -8 * (o >> 1 & 1), -8 * (o >> 2 & 1));
+      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+        const Key k = key(leaves[i]->origin());
+        for (int o = 0; o < 8; ++o) keys[8 * i + std::size_t(o)] = neighborKey(k, o);
+      }
     });
-    tbb::parallel_sort(origins.begin(), origins.end());
-    origins.erase(std::unique(origins.begin(), origins.end()), origins.end());
-    mBlocks.resize(origins.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, origins.size(), 256), [&](const auto& range) {
+    tbb::parallel_sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    mBlocks.resize(keys.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, keys.size(), 512), [&](const auto& range) {
       for (std::size_t b = range.begin(); b != range.end(); ++b) {
         Block& block = mBlocks[b];
-        block.origin = origins[b];
+        block.origin = origin(keys[b]);
         block.neighbor[0] = std::int32_t(b);
         block.allNeighbors = true;
         for (int o = 1; o < 8; ++o) {
-          const Coord at = origins[b].offsetBy(-8 * (o & 1), -8 * (o >> 1 & 1), -8 * (o >> 2 & 1));
-          const auto end = origins.begin() + std::ptrdiff_t(b);  // every such neighbour sorts before
-          const auto it = std::lower_bound(origins.begin(), end, at);
-          block.neighbor[std::size_t(o)] = it != end && *it == at ? std::int32_t(it - origins.begin()) : -1;
+          const Key target = neighborKey(keys[b], o);
+          const auto end = keys.begin() + std::ptrdiff_t(b);  // neighbours sort before
+          const auto it = std::lower_bound(keys.begin(), end, target);
+          block.neighbor[std::size_t(o)] = it != end && *it == target ? std::int32_t(it - keys.begin()) : -1;
           block.allNeighbors = block.allNeighbors && block.neighbor[std::size_t(o)] >= 0;
         }
       }
@@ -312,8 +404,8 @@ private:
 
   /// Whether the cells around an edge (start cell index, axis) all lie in existing blocks.
   static bool quadComplete(const Block& block, int start, int axis) {
-    if (block.allNeighbors) return true;
     const int p[3] = {start >> 6, start >> 3 & 7, start & 7};
+    if (block.allNeighbors || (p[kOtherAxes[axis][0]] > 0 && p[kOtherAxes[axis][1]] > 0)) return true;
     for (const auto& offset : kQuadCells[axis]) {
       const int b = int(p[0] < offset[0]) | int(p[1] < offset[1]) << 1 | int(p[2] < offset[2]) << 2;
       if (block.neighbor[std::size_t(b)] < 0) return false;
@@ -364,7 +456,7 @@ private:
         const int bit = __builtin_ctzll(word);
         block.vertexCount += mTable[cellConfig(accessor, block, x, bit >> 3, bit & 7)].groupCount;
       }
-    forEachSignChange(rows, [&](int start, int axis, bool) { block.quadCount += quadComplete(block, start, axis); });
+    forEachSignChange(rows, [&](auto axis, int start, bool) { block.quadCount += quadComplete(block, start, axis); });
   }
 
   openvdb::Vec3s toWorld(const openvdb::Vec3d& index) const {
@@ -376,7 +468,8 @@ private:
   void placeVertices(const Accessor& accessor, std::size_t b, std::vector<Eigen::Vector3f>& vertices) {
     const Block& block = mBlocks[b];
     if (block.cellCount == 0) return;
-    const BlockVoxels voxels(accessor, block.origin);
+    float corners[9][9][9];
+    BlockVoxels(accessor, block.origin).gather(corners);
     CellEntry* entry = &mCells[mCellBase[b]];
     std::uint32_t vertex = std::uint32_t(mVertexBase[b]);
     const openvdb::Vec3d origin(block.origin.asVec3d());
@@ -384,41 +477,49 @@ private:
       for (std::uint64_t word = block.mixed[std::size_t(x)]; word; word &= word - 1) {
         const int bit = __builtin_ctzll(word), y = bit >> 3, z = bit & 7;
         const unsigned config = cellConfig(accessor, block, x, y, z);
-        *entry++ = {vertex, config};
-        float corner[8];
-        if (voxels.data[0] && x < 7 && y < 7 && z < 7) {
-          const float* v = voxels.data[0] + (x << 6 | y << 3 | z);
-          for (int n = 0; n < 8; ++n) corner[n] = v[kCornerOffset[n]];
-        } else {
-          for (int n = 0; n < 8; ++n) corner[n] = voxels.value(x + (n & 1), y + (n >> 1 & 1), z + (n >> 2 & 1));
-        }
-        auto crossing = [&](int e) {  // linear interpolation along edge e
-          const float v0 = corner[mEdgeCorner0[e]], v1 = corner[mEdgeCorner1[e]];
-          return v0 / (v0 - v1);
-        };
         const CellEdgeGroups& groups = mTable[config];
+        *entry++ = {vertex, mPackedGroups[config]};
+        const float* v = &corners[x][y][z];
         const GroupGeometry& geometry = mGroupGeometry[config];
-        if (groups.groupCount == 1) {  // the common case, summed per axis in registers
-          float sum[3];
-          for (int a = 0; a < 3; ++a) {
-            sum[a] = geometry.baseSum[0][a];
-            for (unsigned edges = groups.edges >> (4 * a) & 0xFu; edges; edges &= edges - 1)
-              sum[a] += crossing(4 * a + __builtin_ctz(edges));
-          }
-          const double inverse = geometry.inverseCount[0];
-          const openvdb::Vec3s p = toWorld(origin + openvdb::Vec3d(x + sum[0] * inverse, y + sum[1] * inverse, z + sum[2] * inverse));
-          vertices[vertex++] = Eigen::Vector3f(p.x(), p.y(), p.z());
+        float t[12];  // zero crossing along each edge, from its corner with coordinate 0 (linear interpolation)
+#if defined(__SSE2__)
+        // Four edges per axis in one register (edges are numbered axis-major; see kCornerOffset).
+        const __m128 low = _mm_setr_ps(v[0], v[81], v[9], v[90]);   // corners 0..3 (z = 0)
+        const __m128 high = _mm_setr_ps(v[1], v[82], v[10], v[91]); // corners 4..7 (z = 1)
+        const __m128 start[3] = {_mm_shuffle_ps(low, high, _MM_SHUFFLE(2, 0, 2, 0)), _mm_movelh_ps(low, high), low};
+        const __m128 end[3] = {_mm_shuffle_ps(low, high, _MM_SHUFFLE(3, 1, 3, 1)), _mm_movehl_ps(high, low), high};
+        __m128 along[3];
+        for (int a = 0; a < 3; ++a)  // edges without a sign change masked to 0 (their 0/0 never used)
+          along[a] = _mm_and_ps(kLaneMask[groups.edges >> (4 * a) & 0xFu],
+                                _mm_div_ps(start[a], _mm_sub_ps(start[a], end[a])));
+        if (groups.groupCount == 1) {  // the common case: sums per axis by a transpose
+          __m128 w = _mm_setzero_ps();
+          _MM_TRANSPOSE4_PS(along[0], along[1], along[2], w);
+          const __m128 sum = _mm_add_ps(_mm_add_ps(along[0], along[1]), _mm_add_ps(along[2], w));
+          const __m128 local = _mm_mul_ps(_mm_add_ps(_mm_loadu_ps(geometry.baseSum[0]), sum), _mm_set1_ps(geometry.inverseCount[0]));
+          float p[4];
+          _mm_storeu_ps(p, local);
+          const openvdb::Vec3s world = toWorld(origin + openvdb::Vec3d(x + p[0], y + p[1], z + p[2]));
+          vertices[vertex++] = Eigen::Vector3f(world.x(), world.y(), world.z());
           continue;
         }
-        float sum[4][3];
-        std::copy(&geometry.baseSum[0][0], &geometry.baseSum[0][0] + 12, &sum[0][0]);
+        for (int a = 0; a < 3; ++a) _mm_storeu_ps(t + 4 * a, along[a]);
+#else
+        for (int e = 0; e < 12; ++e) {
+          const float v0 = v[kCornerOffset[mEdgeCorner0[e]]], v1 = v[kCornerOffset[mEdgeCorner1[e]]];
+          t[e] = (groups.edges >> e & 1) ? v0 / (v0 - v1) : 0.0f;
+        }
+#endif
+        float sum[4][4];
+        std::copy(&geometry.baseSum[0][0], &geometry.baseSum[0][0] + 16, &sum[0][0]);
         for (unsigned edges = groups.edges; edges; edges &= edges - 1) {
           const int e = __builtin_ctz(edges);
-          sum[groups.group[std::size_t(e)]][e >> 2] += crossing(e);
+          sum[groups.group[std::size_t(e)]][e >> 2] += t[e];
         }
         for (int g = 0; g < groups.groupCount; ++g) {
-          const double inverse = geometry.inverseCount[g];
-          const openvdb::Vec3s p = toWorld(origin + openvdb::Vec3d(x + sum[g][0] * inverse, y + sum[g][1] * inverse, z + sum[g][2] * inverse));
+          const float inverse = geometry.inverseCount[g];
+          const openvdb::Vec3s p =
+              toWorld(origin + openvdb::Vec3d(x + sum[g][0] * inverse, y + sum[g][1] * inverse, z + sum[g][2] * inverse));
           vertices[vertex++] = Eigen::Vector3f(p.x(), p.y(), p.z());
         }
       }
@@ -445,7 +546,8 @@ private:
     const CellEntry* cells = &mCells[mCellBase[b]];
     std::array<std::uint32_t, 3>* triangle = &mesh.triangles[2 * mQuadBase[b]];
     const Eigen::Vector3f* vertices = mesh.vertices.data();
-    forEachSignChange(block.rows, [&](int start, int axis, bool inside) {
+    forEachSignChange(block.rows, [&](auto axisConstant, int start, bool inside) {
+      constexpr int axis = decltype(axisConstant)::value;
       if (!quadComplete(block, start, axis)) return;
       const int p[3] = {start >> 6, start >> 3 & 7, start & 7};
       std::uint32_t index[4];
@@ -457,7 +559,7 @@ private:
         const CellEntry& entry =
             which == 0 ? cells[local[n]] : cellEntry(std::size_t(block.neighbor[std::size_t(which)]), n);
         const int edge = 4 * axis + offset[kOtherAxes[axis][0]] + 2 * offset[kOtherAxes[axis][1]];
-        index[i] = entry.firstVertex + mTable[entry.config].group[std::size_t(edge)];
+        index[i] = entry.firstVertex + (entry.groups >> (2 * edge) & 3u);
       }
       const Eigen::Vector3f &a = vertices[index[0]], &b = vertices[index[1]], &c = vertices[index[2]], &d = vertices[index[3]];
       if ((a - c).squaredNorm() <= (b - d).squaredNorm()) {  // shorter diagonal
@@ -476,6 +578,7 @@ private:
   const std::array<CellEdgeGroups, 512>& mTable;
   int mEdgeCorner0[12], mEdgeCorner1[12];
   std::array<GroupGeometry, 512> mGroupGeometry;
+  std::array<std::uint32_t, 512> mPackedGroups;
   std::vector<Block> mBlocks;
   std::vector<std::size_t> mCellBase, mVertexBase, mQuadBase;
   std::vector<CellEntry> mCells;
