@@ -11,7 +11,7 @@
 /// Internal to surfacing (includes OpenVDB).
 #pragma once
 
-#include "surfacing/ParticleGrid.h"
+#include "libsph/Types.h"
 #include "surfacing/detail/Profile.h"
 
 #include <openvdb/openvdb.h>
@@ -23,6 +23,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 namespace cascade::surfacing::detail {
@@ -35,6 +36,56 @@ inline void supportVoxelRange(const Vec3r& center, const Eigen::Vector3f& half, 
     hi[k] = int(std::floor((double(center[k]) + half[k]) / voxelSize));
   }
 }
+
+/// Union boxes (voxel index ranges) of kernel supports per bin: an open-addressing
+/// hash table of bin coordinates, load factor <= 1/2.
+class BinBoxes {
+public:
+  struct Entry {
+    openvdb::Coord bin, lo, hi;
+    bool used = false;
+  };
+  /// Grows the box of `bin` by [lo, hi] (creating it as [lo, hi]).
+  void add(const openvdb::Coord& bin, const openvdb::Coord& lo, const openvdb::Coord& hi) {
+    if (2 * (mCount + 1) > mEntries.size()) grow();
+    Entry& entry = find(bin);
+    if (!entry.used) {
+      entry = {bin, lo, hi, true};
+      ++mCount;
+      return;
+    }
+    entry.lo.minComponent(lo);
+    entry.hi.maxComponent(hi);
+  }
+  const std::vector<Entry>& entries() const { return mEntries; }
+  void swap(BinBoxes& other) noexcept {
+    mEntries.swap(other.mEntries);
+    std::swap(mCount, other.mCount);
+  }
+
+private:
+  static std::uint64_t hash(const openvdb::Coord& bin) {  // splitmix64's finaliser of the packed coordinates
+    std::uint64_t key = (std::uint64_t(std::uint32_t(bin.x())) << 42) ^ (std::uint64_t(std::uint32_t(bin.y())) << 21) ^
+                        std::uint64_t(std::uint32_t(bin.z()));
+    key = (key ^ (key >> 30)) * 0xBF58476D1CE4E5B9ull;
+    key = (key ^ (key >> 27)) * 0x94D049BB133111EBull;
+    return key ^ (key >> 31);
+  }
+  Entry& find(const openvdb::Coord& bin) {
+    const std::size_t mask = mEntries.size() - 1;
+    std::size_t slot = std::size_t(hash(bin)) & mask;
+    while (mEntries[slot].used && mEntries[slot].bin != bin) slot = (slot + 1) & mask;
+    return mEntries[slot];
+  }
+  void grow() {
+    std::vector<Entry> old(std::max<std::size_t>(1024, 2 * mEntries.size()));
+    old.swap(mEntries);
+    for (const Entry& entry : old)
+      if (entry.used) find(entry.bin) = entry;
+  }
+  std::vector<Entry> mEntries;
+  std::size_t mCount = 0;
+};
 
 /// Rasterizes kernels into `tree`'s leaves. `accumulate(leafOrigin, candidates, values)`
 /// fills 512 floats (VDB leaf order, z fastest) of one leaf from candidate kernel
@@ -49,37 +100,42 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
   if (n == 0) return;
   const double blockSize = LeafT::DIM * voxelSize;
   ProfileClock profile;
-  const ParticleGrid bins(center, blockSize);
-  profile.lap("blocks: bins");
 
-  // Leaves touched by the supports of non-interior kernels, per bin (union of boxes).
-  std::vector<std::vector<openvdb::Coord>> perBin(bins.cellCount());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, bins.cellCount(), 64), [&](const auto& range) {
-    for (std::size_t cell = range.begin(); cell != range.end(); ++cell) {
-      const auto [begin, end] = bins.cellRange(cell);
-      openvdb::Coord lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
-      bool any = false;
-      for (std::uint32_t slot = begin; slot < end; ++slot) {
-        const std::uint32_t k = bins.sortedIndex()[slot];
-        if (!interior.empty() && interior[k]) continue;
-        openvdb::Coord a, b;
-        supportVoxelRange(center[k], half[k], voxelSize, a, b);
-        lo.minComponent(a);
-        hi.maxComponent(b);
-        any = true;
-      }
-      if (!any) continue;
-      auto& leaves = perBin[cell];
-      const openvdb::Coord first = lo & ~(LeafT::DIM - 1), last = hi & ~(LeafT::DIM - 1);
-      for (int x = first.x(); x <= last.x(); x += LeafT::DIM)
-        for (int y = first.y(); y <= last.y(); y += LeafT::DIM)
-          for (int z = first.z(); z <= last.z(); z += LeafT::DIM) leaves.emplace_back(x, y, z);
+  // Leaves touched by the supports of non-interior kernels: per bin (block-sized
+  // cell of kernel centres) the union of their support boxes, then every leaf of
+  // each bin's union box. Bins are hash-table entries, filled in parallel over
+  // chunks of kernels and merged (min/max: the same boxes in any order).
+  const double inverseBlock = 1.0 / blockSize;
+  auto binOf = [&](const Vec3r& c) {
+    return openvdb::Coord(int(std::floor(double(c.x()) * inverseBlock)), int(std::floor(double(c.y()) * inverseBlock)),
+                          int(std::floor(double(c.z()) * inverseBlock)));
+  };
+  const std::size_t binChunks = std::min<std::size_t>(8, (n + 65535) / 65536);
+  std::vector<BinBoxes> binBoxes(binChunks);
+  tbb::parallel_for(std::size_t(0), binChunks, [&](std::size_t c) {
+    for (std::size_t k = c * n / binChunks; k < (c + 1) * n / binChunks; ++k) {
+      if (!interior.empty() && interior[k]) continue;
+      openvdb::Coord a, b;
+      supportVoxelRange(center[k], half[k], voxelSize, a, b);
+      binBoxes[c].add(binOf(center[k]), a, b);
     }
   });
+  for (std::size_t c = 1; c < binChunks; ++c) {
+    for (const BinBoxes::Entry& entry : binBoxes[c].entries())
+      if (entry.used) binBoxes[0].add(entry.bin, entry.lo, entry.hi);
+    BinBoxes().swap(binBoxes[c]);
+  }
   std::vector<openvdb::Coord> origins;
-  for (auto& leaves : perBin) origins.insert(origins.end(), leaves.begin(), leaves.end());
-  perBin.clear();
-  perBin.shrink_to_fit();
+  if (binChunks > 0) {
+    for (const BinBoxes::Entry& entry : binBoxes[0].entries()) {
+      if (!entry.used) continue;
+      const openvdb::Coord first = entry.lo & ~(LeafT::DIM - 1), last = entry.hi & ~(LeafT::DIM - 1);
+      for (int x = first.x(); x <= last.x(); x += LeafT::DIM)
+        for (int y = first.y(); y <= last.y(); y += LeafT::DIM)
+          for (int z = first.z(); z <= last.z(); z += LeafT::DIM) origins.emplace_back(x, y, z);
+    }
+  }
+  binBoxes.clear();
   tbb::parallel_sort(origins.begin(), origins.end());
   origins.erase(std::unique(origins.begin(), origins.end()), origins.end());
 
