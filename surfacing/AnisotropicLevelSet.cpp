@@ -27,15 +27,14 @@ typedef float Row8 __attribute__((vector_size(32)));
 /// Compiled for AVX2 (a row is one 8-float register) and for the baseline; both
 /// give the same bits (the same IEEE operations in the same order, no contraction).
 __attribute__((target_clones("avx2", "default")))
-void accumulateLeaf(const AnisotropicKernels& kernels, const openvdb::Coord& origin,
+void accumulateLeaf(const AnisotropicKernels& kernels, const std::vector<detail::VoxelBox>& boxes, const openvdb::Coord& origin,
                     const std::uint32_t* candidates, std::size_t count, double dx, float* out) {
   const float step = float(dx);
   const Row8 rowZ = {0, 1, 2, 3, 4, 5, 6, 7};
   const Eigen::Vector3d originWorld = Eigen::Vector3d(origin.x(), origin.y(), origin.z()) * dx;
   for (std::size_t c = 0; c < count; ++c) {
     const std::uint32_t k = candidates[c];
-    openvdb::Coord lo, hi;
-    detail::supportVoxelRange(kernels.center[k], kernels.halfExtent[k], dx, lo, hi);
+    openvdb::Coord lo = boxes[k].lo, hi = boxes[k].hi;
     lo.maxComponent(origin);
     hi.minComponent(origin.offsetBy(kDim - 1));
     const Eigen::Matrix3f& G = kernels.transform[k];
@@ -91,10 +90,10 @@ openvdb::FloatGrid::Ptr anisotropicLevelSet(const std::vector<Vec3r>& positions,
   static const std::vector<std::uint8_t> none;
 
   openvdb::FloatTree field(0.0f);
-  detail::rasterizeBlocks(field, kernels.center, kernels.halfExtent,
-                          settings.skipInterior ? kernels.interior : none, dx,
+  const std::vector<detail::VoxelBox> boxes = detail::supportVoxelBoxes(kernels.center, kernels.halfExtent, dx);
+  detail::rasterizeBlocks(field, kernels.center, boxes, settings.skipInterior ? kernels.interior : none, dx,
                           [&](const openvdb::Coord& origin, const std::vector<std::uint32_t>& candidates, float* out) {
-    accumulateLeaf(kernels, origin, candidates.data(), candidates.size(), dx, out);
+    accumulateLeaf(kernels, boxes, origin, candidates.data(), candidates.size(), dx, out);
     return true;
   });
   profile.lap("anisotropic: rasterize blocks");

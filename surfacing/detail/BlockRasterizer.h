@@ -37,6 +37,22 @@ inline void supportVoxelRange(const Vec3r& center, const Eigen::Vector3f& half, 
   }
 }
 
+/// A kernel's voxel index range [lo, hi] (supportVoxelRange).
+struct VoxelBox {
+  openvdb::Coord lo, hi;
+};
+
+/// supportVoxelRange of every kernel, computed once for all the passes that need it.
+inline std::vector<VoxelBox> supportVoxelBoxes(const std::vector<Vec3r>& center,
+                                               const std::vector<Eigen::Vector3f>& half, double voxelSize) {
+  std::vector<VoxelBox> boxes(center.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, center.size(), 4096), [&](const auto& range) {
+    for (std::size_t k = range.begin(); k != range.end(); ++k)
+      supportVoxelRange(center[k], half[k], voxelSize, boxes[k].lo, boxes[k].hi);
+  });
+  return boxes;
+}
+
 /// Union boxes (voxel index ranges) of kernel supports per bin: an open-addressing
 /// hash table of bin coordinates, load factor <= 1/2.
 class BinBoxes {
@@ -90,11 +106,11 @@ private:
 /// Rasterizes kernels into `tree`'s leaves. `accumulate(leafOrigin, candidates, values)`
 /// fills 512 floats (VDB leaf order, z fastest) of one leaf from candidate kernel
 /// slots (sorted); it returns false to leave the leaf out.
-/// `center`, `half`, `interior` describe the kernels (interior may be empty).
+/// `center`, `boxes` (supportVoxelBoxes), `interior` describe the kernels
+/// (interior may be empty).
 template <class Accumulate>
-void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
-                     const std::vector<Eigen::Vector3f>& half, const std::vector<std::uint8_t>& interior,
-                     double voxelSize, const Accumulate& accumulate) {
+void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center, const std::vector<VoxelBox>& boxes,
+                     const std::vector<std::uint8_t>& interior, double voxelSize, const Accumulate& accumulate) {
   using LeafT = openvdb::FloatTree::LeafNodeType;
   const std::size_t n = center.size();
   if (n == 0) return;
@@ -115,9 +131,7 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
   tbb::parallel_for(std::size_t(0), binChunks, [&](std::size_t c) {
     for (std::size_t k = c * n / binChunks; k < (c + 1) * n / binChunks; ++k) {
       if (!interior.empty() && interior[k]) continue;
-      openvdb::Coord a, b;
-      supportVoxelRange(center[k], half[k], voxelSize, a, b);
-      binBoxes[c].add(binOf(center[k]), a, b);
+      binBoxes[c].add(binOf(center[k]), boxes[k].lo, boxes[k].hi);
     }
   });
   for (std::size_t c = 1; c < binChunks; ++c) {
@@ -173,8 +187,8 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
     for (std::size_t c = range.begin(); c != range.end(); ++c) {
       auto& pairs = chunkPairs[c];
       for (std::size_t k = c * chunk; k < std::min(n, (c + 1) * chunk); ++k) {
-        openvdb::Coord lo, hi;
-        supportVoxelRange(center[k], half[k], voxelSize, lo, hi);
+        const openvdb::Coord& lo = boxes[k].lo;
+        const openvdb::Coord& hi = boxes[k].hi;
         if (lo.x() > hi.x() || lo.y() > hi.y() || lo.z() > hi.z()) continue;
         const openvdb::Coord first = lo & ~(LeafT::DIM - 1), last = hi & ~(LeafT::DIM - 1);
         for (int x = first.x(); x <= last.x(); x += LeafT::DIM)
@@ -243,6 +257,14 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
   for (LeafT* leaf : leaves)
     if (leaf) tree.addLeaf(leaf);
   profile.lap("blocks: add leaves");
+}
+
+/// The same from the kernels' support half sizes `half`.
+template <class Accumulate>
+void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
+                     const std::vector<Eigen::Vector3f>& half, const std::vector<std::uint8_t>& interior,
+                     double voxelSize, const Accumulate& accumulate) {
+  rasterizeBlocks(tree, center, supportVoxelBoxes(center, half, voxelSize), interior, voxelSize, accumulate);
 }
 
 } // namespace cascade::surfacing::detail
