@@ -37,14 +37,22 @@
 ///
 /// Implementation: cells are processed in blocks of 8^3 aligned with the tree's
 /// leaves (each leaf, and each missing leaf on its -x/-y/-z side, whose cells
-/// touch the leaf), in parallel (TBB). Inside bits are kept as 9-bit rows so the
-/// cells with a sign change and the edges with one are found with a few word
-/// operations per row. Pass 1 computes each block's vertices and its quads;
-/// pass 2, after a prefix sum over blocks, writes vertices and triangles in
-/// block order, so the mesh does not depend on the number of threads. Sign
-/// changes between two tile values (no leaf at either end) are not meshed; a
-/// narrow-band level set has none. Vertices are in world space (the grid's
+/// touch the leaf), in parallel (TBB), in a fixed block order (by the tree's
+/// 128^3 internal nodes, then by origin). Inside bits are kept as 9-bit rows
+/// read straight from the leaf buffers, so the cells and edges with a sign
+/// change are found with a few word operations per row. Pass 1 counts each
+/// block's mixed cells, vertices and quads; after prefix sums over blocks, pass 2
+/// writes the vertices and pass 3 the triangles into their final places, so the
+/// mesh does not depend on the number of threads. Sign changes between two tile
+/// values (no leaf at either end) are not meshed; a narrow-band level set has
+/// none. Where OpenVDB leaves a hole (a sign change next to a missing leaf,
+/// e.g. after pruning a filtered band), this mesher closes it, so its quads are
+/// then a superset of OpenVDB's. Vertices are in world space (the grid's
 /// transform).
+///
+/// Speed (the 0.9 M particle splash of `cascade bench surface`, 7.2 M active
+/// voxels, 2.8 M quads, 2 cores): about 320 ms CPU, against about 1,150 ms for
+/// OpenVDB's volumeToMesh at adaptivity 0.
 #pragma once
 
 #include "libsph/io/TriangleMesh.h"
