@@ -89,9 +89,9 @@ openvdb::FloatGrid::Ptr anisotropicLevelSet(const std::vector<Vec3r>& positions,
   profile.lap("anisotropic: kernels");
   static const std::vector<std::uint8_t> none;
 
-  openvdb::FloatTree field(0.0f);
+  auto field = std::make_shared<openvdb::FloatTree>(0.0f);
   const std::vector<detail::VoxelBox> boxes = detail::supportVoxelBoxes(kernels.center, kernels.halfExtent, dx);
-  detail::rasterizeBlocks(field, kernels.center, boxes, settings.skipInterior ? kernels.interior : none, dx,
+  detail::rasterizeBlocks(*field, kernels.center, boxes, settings.skipInterior ? kernels.interior : none, dx,
                           [&](const openvdb::Coord& origin, const std::vector<std::uint32_t>& candidates, float* out) {
     accumulateLeaf(kernels, boxes, origin, candidates.data(), candidates.size(), dx, out);
     return true;

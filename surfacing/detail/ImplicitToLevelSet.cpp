@@ -7,6 +7,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <vector>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -125,30 +126,8 @@ void levelSetLeaf(const PaddedLeaf& f, float* out, FloatLeaf::NodeMaskType& mask
     }
 }
 
-} // namespace
-
-openvdb::FloatGrid::Ptr implicitToLevelSet(const openvdb::FloatTree& field, float iso, bool insideAbove,
-                                           double voxelSize, int halfWidth) {
-  using LeafT = openvdb::FloatTree::LeafNodeType;
-  const float background = float(halfWidth * voxelSize);
-  auto tree = std::make_shared<openvdb::FloatTree>(field, background, openvdb::TopologyCopy());
-  const float inverse2dx = float(0.5 / voxelSize), inverseDx = float(1 / voxelSize);
-
-  const LeafNeighborhoods input(field, kUndefinedField);
-  std::vector<LeafT*> leaves;
-  tree->getNodes(leaves);  // same topology, same order as input.leaves
-  const Stencil stencil{iso, insideAbove ? -1.0f : 1.0f, background, inverse2dx, inverseDx};
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 16), [&](const auto& range) {
-    PaddedLeaf f = {};  // edges and corners stay unused
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      gatherFaces(input, i, f);
-      LeafT& leaf = *leaves[i];
-      float* out = leaf.buffer().data();
-      LeafT::NodeMaskType mask;
-      levelSetLeaf(f, out, mask, stencil);
-      leaf.setValueMask(mask);
-    }
-  });
+/// Prune, sign the inside and wrap `tree` (background already +-background) as a level-set grid.
+openvdb::FloatGrid::Ptr finishLevelSet(openvdb::FloatTree::Ptr tree, double voxelSize) {
   ProfileClock profile;
   openvdb::tools::pruneLevelSet(*tree);
   profile.lap("to level set: prune");
@@ -158,6 +137,89 @@ openvdb::FloatGrid::Ptr implicitToLevelSet(const openvdb::FloatTree& field, floa
   grid->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
   grid->setGridClass(openvdb::GRID_LEVEL_SET);
   return grid;
+}
+
+Stencil makeStencil(float iso, bool insideAbove, double voxelSize, int halfWidth) {
+  return {iso, insideAbove ? -1.0f : 1.0f, float(halfWidth * voxelSize), float(0.5 / voxelSize), float(1 / voxelSize)};
+}
+
+} // namespace
+
+openvdb::FloatGrid::Ptr implicitToLevelSet(const openvdb::FloatTree& field, float iso, bool insideAbove,
+                                           double voxelSize, int halfWidth) {
+  using LeafT = openvdb::FloatTree::LeafNodeType;
+  const Stencil stencil = makeStencil(iso, insideAbove, voxelSize, halfWidth);
+  auto tree = std::make_shared<openvdb::FloatTree>(field, stencil.background, openvdb::TopologyCopy());
+  const LeafNeighborhoods input(field, kUndefinedField);
+  std::vector<LeafT*> leaves;
+  tree->getNodes(leaves);  // same topology, same order as input.leaves
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 16), [&](const auto& range) {
+    PaddedLeaf f = {};  // edges and corners stay unused
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      gatherFaces(input, i, f);
+      LeafT& leaf = *leaves[i];
+      LeafT::NodeMaskType mask;
+      levelSetLeaf(f, leaf.buffer().data(), mask, stencil);
+      leaf.setValueMask(mask);
+    }
+  });
+  return finishLevelSet(tree, voxelSize);
+}
+
+openvdb::FloatGrid::Ptr implicitToLevelSet(openvdb::FloatTree::Ptr field, float iso, bool insideAbove,
+                                           double voxelSize, int halfWidth) {
+  using LeafT = openvdb::FloatTree::LeafNodeType;
+  const Stencil stencil = makeStencil(iso, insideAbove, voxelSize, halfWidth);
+  const LeafNeighborhoods input(*field, kUndefinedField);
+  const std::size_t count = input.leaves.size();
+  // Slabs of leaves of equal origin x, in ascending x. A leaf's stencil reads its
+  // own slab and the two next to it, so slab s - 1 is overwritten (from scratch)
+  // once slab s is done: two slabs of scratch instead of a second tree.
+  std::vector<std::uint32_t> order(count);
+  for (std::size_t i = 0; i < count; ++i) order[i] = std::uint32_t(i);
+  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return input.leaves[a]->origin().x() < input.leaves[b]->origin().x();
+  });
+  struct Result {
+    alignas(32) float values[LeafT::SIZE];
+    LeafT::NodeMaskType mask;
+  };
+  std::vector<Result> previous, current;
+  std::size_t previousBegin = 0, previousEnd = 0;  // range of `order` held by `previous`
+  auto writeBack = [&](const std::vector<Result>& results, std::size_t begin, std::size_t end) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(begin, end, 16), [&](const auto& range) {
+      for (std::size_t j = range.begin(); j != range.end(); ++j) {
+        auto& leaf = const_cast<LeafT&>(*input.leaves[order[j]]);
+        std::memcpy(leaf.buffer().data(), results[j - begin].values, sizeof(float) * LeafT::SIZE);
+        leaf.setValueMask(results[j - begin].mask);
+      }
+    });
+  };
+  for (std::size_t begin = 0; begin < count;) {
+    std::size_t end = begin + 1;
+    const int x = input.leaves[order[begin]]->origin().x();
+    while (end < count && input.leaves[order[end]]->origin().x() == x) ++end;
+    current.resize(end - begin);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(begin, end, 16), [&](const auto& range) {
+      PaddedLeaf f = {};  // edges and corners stay unused
+      for (std::size_t j = range.begin(); j != range.end(); ++j) {
+        gatherFaces(input, order[j], f);
+        Result& result = current[j - begin];
+        result.mask.setOff();
+        levelSetLeaf(f, result.values, result.mask, stencil);
+      }
+    });
+    writeBack(previous, previousBegin, previousEnd);
+    previous.swap(current);
+    previousBegin = begin;
+    previousEnd = end;
+    begin = end;
+  }
+  writeBack(previous, previousBegin, previousEnd);
+  // Inactive values are +-background already; internal tiles and the root take it
+  // in pruneLevelSet and signedFloodFill.
+  field->root().setBackground(stencil.background, /*updateChildNodes=*/false);
+  return finishLevelSet(field, voxelSize);
 }
 
 } // namespace cascade::surfacing::detail

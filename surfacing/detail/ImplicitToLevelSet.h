@@ -20,4 +20,9 @@ constexpr float kUndefinedField = 1e30f;
 openvdb::FloatGrid::Ptr implicitToLevelSet(const openvdb::FloatTree& field, float iso, bool insideAbove,
                                            double voxelSize, int halfWidth);
 
+/// The same, turning `field` itself into the level set (no second tree): the
+/// same values and topology.
+openvdb::FloatGrid::Ptr implicitToLevelSet(openvdb::FloatTree::Ptr field, float iso, bool insideAbove,
+                                           double voxelSize, int halfWidth);
+
 } // namespace cascade::surfacing::detail
