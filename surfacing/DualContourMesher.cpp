@@ -11,6 +11,7 @@
 #include <xmmintrin.h>
 #endif
 #include <cassert>
+#include <memory>
 #include <type_traits>
 #include <vector>
 
@@ -320,7 +321,7 @@ public:
     TriangleMesh mesh;
     mesh.vertices.resize(mVertexBase.back());
     mesh.triangles.resize(2 * mQuadBase.back());
-    mCells.resize(mCellBase.back());
+    mCells.reset(new CellEntry[mCellBase.back()]);  // every entry written in pass 2 (no zero fill)
     profile.lap("mesh: allocate");
     forBlocks(16, [&](const Accessor& accessor, std::size_t b) { placeVertices(accessor, b, mesh.vertices); });
     profile.lap("mesh: vertices");
@@ -581,7 +582,7 @@ private:
   std::array<std::uint32_t, 512> mPackedGroups;
   std::vector<Block> mBlocks;
   std::vector<std::size_t> mCellBase, mVertexBase, mQuadBase;
-  std::vector<CellEntry> mCells;
+  std::unique_ptr<CellEntry[]> mCells;
 };
 
 } // namespace
