@@ -38,8 +38,12 @@ constexpr Real kDensityWarmStart = Real(0.5);     // constant-density solve: hal
 constexpr int kMinDensityIterations = 1;          // sweeps after the warm start
 // Constant-density sweeps (issue 7): kappa_i += omega r_i alpha_i / dt^2 + beta (the last
 // sweep's increment of i). With omega = 1 and no momentum (B&K 2017, SPlisHSPlasH) a sweep
-// overshoots (alpha_i is the exact diagonal, but every neighbour corrects the same error at
-// once) and a compression-only solve cannot take an overshoot back: each step left kicks in
+// overshoots (every neighbour corrects the same error at once; and near mirrors 1 / alpha_i
+// underestimates the diagonal: the density change of i per unit kappa_i, measured by
+// applying it alone, is 1.00-1.28 x 1 / alpha_i with one reflection and up to 1.43 x at
+// edges; not yet traced: likely the neighbours' own images of i, which alpha_i does not
+// count) and a compression-only solve
+// cannot take an overshoot back: each step left kicks in
 // the velocities, and a resting 36-layer column's floor pressure swung by +-45 % of rho g H
 // from step to step (measured; 72 layers: +-60 %, largest compression 1.6-2.8 %).
 // omega < 1 alone quiets it but rebuilds the pressure the half warm start leaves out by
