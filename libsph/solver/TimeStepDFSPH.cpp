@@ -48,8 +48,10 @@ constexpr int kMinDensityIterations = 1;          // sweeps after the warm start
 // from step to step (measured; 72 layers: +-60 %, largest compression 1.6-2.8 %).
 // omega < 1 alone quiets it but rebuilds the pressure the half warm start leaves out by
 // diffusion (62 sweeps a step at 36 layers, over 100 at 72); the momentum term (heavy ball)
-// carries that slow, deep part: 37 sweeps at 36 layers, 41 at 72, floor pressure spread 1 %.
-// Measured on the tank: omega + beta <= 1.2 is quiet, 1.3 rings again.
+// carries that slow, deep part: 37 sweeps a step at 36 layers (floor pressure spread 1 %),
+// 41 at 72 (bench tank: spread 11-31 %, floor pressure within 1.4 %, largest compression
+// 0.3 %; a narrow 72-layer column still rings again after 0.5 s: issue 7 open there).
+// Measured on the 36-layer tank: omega + beta <= 1.2 is quiet, 1.3 rings again.
 constexpr Real kDensityRelaxation = Real(0.6);  // omega
 constexpr Real kDensityMomentum = Real(0.5);    // beta
 // A step removes at most this much of a compression already there (particles
