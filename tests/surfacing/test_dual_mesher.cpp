@@ -496,6 +496,25 @@ TEST(DualMesher, SameOutputForOneAndTwoThreads) {
   EXPECT_TRUE(one.triangles == two.triangles);
 }
 
+TEST(DualMesher, EmptyGridAndShiftedTransform) {
+  const auto empty = openvdb::FloatGrid::create(0.3f);
+  const TriangleMesh none = surfacing::dualContourMesh(*empty);
+  EXPECT_TRUE(none.vertices.empty());
+  EXPECT_TRUE(none.triangles.empty());
+  // A voxel-centred, translated lattice (as the surfacing stage's world-aligned grids):
+  // vertices in world space, still OpenVDB's.
+  auto sphere = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(0.8f, openvdb::Vec3f(2.0f, -1.0f, 0.5f), 0.04f, 3.0f);
+  auto transform = openvdb::math::Transform::createLinearTransform(0.04);
+  transform->postTranslate(openvdb::Vec3d(0.013, -0.007, 0.02));
+  sphere->setTransform(transform);
+  const TriangleMesh mesh = checkMesh(*sphere, 2, "translated sphere");
+  Eigen::Vector3f mean = Eigen::Vector3f::Zero();
+  for (const auto& v : mesh.vertices) mean += v / float(mesh.vertices.size());
+  EXPECT_NEAR(mean.x(), 2.013f, 0.01f);
+  EXPECT_NEAR(mean.y(), -1.007f, 0.01f);
+  EXPECT_NEAR(mean.z(), 0.52f, 0.01f);
+}
+
 TEST(DualMesher, LeafNextToMissingLeaves) {
   // One leaf holding a slab phi = z - 3.5 voxels; every neighbour leaf is missing
   // (background, outside), so the inside is an 8 x 8 x 4 block of voxels whose
