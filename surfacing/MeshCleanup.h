@@ -1,19 +1,23 @@
 /// @file MeshCleanup.h
 /// @brief Clean-up of an extracted iso-surface mesh:
-///   1. drop degenerate triangles (repeated vertices or zero area);
-///   2. split into vertex-connected components (union-find) and drop those whose
-///      enclosed volume |V| (divergence theorem, V = sum a.(b x c) / 6) is below
-///      a threshold (spray specks, tiny bubbles);
+///   1. split into vertex-connected components (union-find);
+///   2. one pass over the triangles: drop degenerate ones (a repeated vertex or
+///      zero area), sum each component's enclosed volume |V| (divergence theorem,
+///      V = sum (a - o).((b - a) x (c - a)) / 6 about a vertex o of the
+///      component) and drop components below a threshold (spray specks, tiny
+///      bubbles), and sum the area-weighted vertex normals from the same cross
+///      products;
 ///   3. orient outward: the extractor's orientation is consistent, so the whole
-///      mesh is flipped if its total signed volume is negative (cavities keep
-///      their inward-facing normals, which point out of the fluid);
-///   4. optionally CGAL: isotropic remeshing (PMP::isotropic_remeshing, Botsch &
-///      Kobbelt 2004) to a target edge length, and/or decimation by edge collapse
-///      (Surface_mesh_simplification, Lindstrom-Turk 1998) to a triangle budget;
-///   5. drop unreferenced vertices and compute area-weighted vertex normals.
-/// Steps 1-3 and 5 run on the indexed mesh directly (CGAL's Surface_mesh
-/// construction alone would cost more than the whole surfacing of a frame);
-/// CGAL is used where it does the geometry work (4). CGAL stays in MeshCleanup.cpp.
+///      mesh (and its normals) is flipped if its total signed volume is negative
+///      (cavities keep their inward-facing normals, which point out of the fluid);
+///      vertices no triangle uses any more are dropped;
+///   4. optionally CGAL (detail/MeshRemeshing.h): isotropic remeshing
+///      (PMP::isotropic_remeshing, Botsch & Kobbelt 2004) to a target edge length,
+///      and/or decimation by edge collapse (Surface_mesh_simplification,
+///      Lindstrom-Turk 1998) to a triangle budget; normals again after it.
+/// Steps 1-3 run on the indexed mesh directly (CGAL's Surface_mesh construction
+/// alone would cost more than the whole surfacing of a frame); CGAL is used where
+/// it does the geometry work (4).
 #pragma once
 
 #include "libsph/io/TriangleMesh.h"
