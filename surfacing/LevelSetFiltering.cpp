@@ -66,7 +66,8 @@ void meanCurvatureStep(const LeafNeighborhoods& band, const std::vector<LeafT*>&
 }
 
 /// One renormalisation step (Sussman, Smereka & Osher 1994) of one leaf, from its
-/// padded values `f` into `out`; returns the new active mask (|phi| < background).
+/// padded values `f` into `out`; sets the bits of the new active voxels
+/// (|phi| < background) in `mask`.
 /// Compiled for AVX2 and for the baseline; both give the same bits (no FMA
 /// contraction: -ffp-contract=off, and the same IEEE operations).
 __attribute__((target_clones("avx2", "default")))
@@ -89,7 +90,6 @@ void renormalizeLeaf(const float (&f)[P][P][P], float* out, LeafT::NodeMaskType&
         continue;
       }
       // Every voxel computed, then selected: no branch in the loop, so it vectorises.
-      std::uint64_t rowBits = 0;
       for (int z = 0; z < D; ++z) {
         const float phi = c[z];
         // Godunov's upwind |grad phi|^2, first-order one-sided differences (index space):
@@ -104,6 +104,7 @@ void renormalizeLeaf(const float (&f)[P][P][P], float* out, LeafT::NodeMaskType&
         const float value = nearest[z] < background ? step : s * background;
         o[z] = std::min(std::max(value, -background), background);  // the band's limits
       }
+      std::uint64_t rowBits = 0;
       for (int z = 0; z < D; ++z) rowBits |= std::uint64_t(std::abs(o[z]) < background) << z;
       mask.getWord<std::uint64_t>(Index(x - 1)) |= rowBits << ((y - 1) << 3);
     }

@@ -94,32 +94,6 @@ std::size_t keepFlagged(TriangleMesh& mesh, const std::vector<std::uint8_t>& kee
   return keep.size() - count;
 }
 
-void computeVertexNormals(TriangleMesh& mesh) {
-  // Area-weighted (the unnormalised face normal), summed per vertex. Two fixed
-  // halves of the triangle list accumulate into their own arrays in parallel and
-  // are added in a fixed order: the same result for any number of threads.
-  const std::size_t n = mesh.vertices.size(), half = mesh.triangles.size() / 2;
-  std::vector<Eigen::Vector3f> second(n, Eigen::Vector3f::Zero());
-  mesh.normals.assign(n, Eigen::Vector3f::Zero());
-  auto accumulate = [&](std::size_t begin, std::size_t end, std::vector<Eigen::Vector3f>& normals) {
-    for (std::size_t i = begin; i < end; ++i) {
-      const auto& t = mesh.triangles[i];
-      const Eigen::Vector3f normal =
-          (mesh.vertices[t[1]] - mesh.vertices[t[0]]).cross(mesh.vertices[t[2]] - mesh.vertices[t[0]]);
-      for (std::uint32_t v : t) normals[v] += normal;
-    }
-  };
-  tbb::parallel_invoke([&] { accumulate(0, half, mesh.normals); },
-                       [&] { accumulate(half, mesh.triangles.size(), second); });
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 8192), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const Eigen::Vector3f sum = mesh.normals[i] + second[i];
-      const float length = sum.norm();
-      mesh.normals[i] = length > 0 ? Eigen::Vector3f(sum / length) : Eigen::Vector3f(0, 0, 1);
-    }
-  });
-}
-
 } // namespace
 
 double meshVolume(const TriangleMesh& mesh) {
@@ -214,11 +188,8 @@ MeshCleanupStats cleanupMesh(TriangleMesh& mesh, const MeshCleanupSettings& sett
   if (dropped > 0) removeUnreferencedVertices(mesh);
   profile.lap("cleanup: unreferenced");
 
-  // 4. CGAL remeshing / decimation (new triangles: normals again).
-  if (settings.remeshEdgeLength > 0 || (settings.triangleBudget > 0 && mesh.triangles.size() > settings.triangleBudget)) {
-    detail::remeshAndDecimate(mesh, settings.remeshEdgeLength, settings.triangleBudget);
-    computeVertexNormals(mesh);
-  }
+  // 4. CGAL remeshing / decimation (new triangles: normals again; CGAL's work dwarfs them).
+  if (detail::remeshAndDecimate(mesh, settings.remeshEdgeLength, settings.triangleBudget)) mesh.computeNormals();
   return stats;
 }
 

@@ -67,8 +67,6 @@ constexpr std::uint64_t kAsciiZeros = 0x3030303030303030ull;
 /// Stores the eight bytes of `word` at `out` (the buffers keep slack for it).
 inline void store8(char* out, std::uint64_t word) { std::memcpy(out, &word, sizeof word); }
 
-/// Decimal digits of an index. Writes up to 8 bytes past the returned end for
-/// values below 10^8 (the buffers keep slack); larger values take a loop.
 /// The text of `value` < 10^8 as a word of up to eight characters, and its length.
 std::uint64_t shortIndexText(std::uint32_t value, int& length) {
   const std::uint64_t digits = digitBytes(value);
@@ -80,6 +78,8 @@ std::uint64_t shortIndexText(std::uint32_t value, int& length) {
 
 constexpr std::uint64_t kShortIndexLimit = 100000000u;
 
+/// Decimal digits of an index. Writes up to 8 bytes past the returned end for
+/// values below 10^8 (the buffers keep slack); larger values take a loop.
 char* putIndex(char* out, std::uint64_t value) {
   if (value < kShortIndexLimit) {
     int length;

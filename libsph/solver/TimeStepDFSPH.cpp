@@ -42,13 +42,12 @@ constexpr int kMinDensityIterations = 1;          // sweeps after the warm start
 // underestimates the diagonal: the density change of i per unit kappa_i, measured by
 // applying it alone, is 1.00-1.28 x 1 / alpha_i with one reflection and up to 1.43 x at
 // edges; not yet traced: likely the neighbours' own images of i, which alpha_i does not
-// count) and a compression-only solve
-// cannot take an overshoot back: each step left kicks in
-// the velocities, and a resting 36-layer column's floor pressure swung by +-45 % of rho g H
-// from step to step (measured; 72 layers: +-60 %, largest compression 1.6-2.8 %).
+// count) and a compression-only solve cannot take an overshoot back: each step left kicks
+// in the velocities, and a resting 36-layer column's floor pressure swung by +-45 % of
+// rho g H from step to step (measured; 72 layers: +-60 %, largest compression 1.6-2.8 %).
 // omega < 1 alone quiets it but rebuilds the pressure the half warm start leaves out by
-// diffusion (62 sweeps a step at 36 layers, over 100 at 72); the momentum term (heavy ball)
-// carries that slow, deep part: 37 sweeps a step at 36 layers (floor pressure spread 1 %),
+// diffusion (62 sweeps a step at 36 layers, over 100 at 72); the momentum term (Polyak's
+// heavy ball, 1964) carries that slow, deep part: 37 sweeps a step at 36 layers (floor pressure spread 1 %),
 // 41 at 72 (bench tank: spread 11-31 %, floor pressure within 1.4 %, largest compression
 // 0.3 %; a narrow 72-layer column still rings again after 0.5 s: issue 7 open there).
 // Measured on the 36-layer tank: omega + beta <= 1.2 is quiet, 1.3 rings again.

@@ -47,21 +47,21 @@ TriangleMesh fromCgal(const CgalMesh& mesh) {
 
 } // namespace
 
-void remeshAndDecimate(TriangleMesh& mesh, double remeshEdgeLength, std::size_t triangleBudget) {
-  if ((remeshEdgeLength > 0 || (triangleBudget > 0 && mesh.triangles.size() > triangleBudget)) &&
-      !mesh.triangles.empty()) {
-    CgalMesh cgalMesh = toCgal(mesh);
-    if (remeshEdgeLength > 0)
-      CGAL::Polygon_mesh_processing::isotropic_remeshing(faces(cgalMesh), remeshEdgeLength, cgalMesh);
-    if (triangleBudget > 0 && cgalMesh.number_of_faces() > triangleBudget) {
-      namespace SMS = CGAL::Surface_mesh_simplification;
-      // Stops below a number of edges; a closed triangle mesh has 3/2 edges per face.
-      SMS::Count_stop_predicate<CgalMesh> stop(triangleBudget * 3 / 2);
-      SMS::edge_collapse(cgalMesh, stop);
-    }
-    cgalMesh.collect_garbage();
-    mesh = fromCgal(cgalMesh);
+bool remeshAndDecimate(TriangleMesh& mesh, double remeshEdgeLength, std::size_t triangleBudget) {
+  const bool decimate = triangleBudget > 0 && mesh.triangles.size() > triangleBudget;
+  if ((remeshEdgeLength <= 0 && !decimate) || mesh.triangles.empty()) return false;
+  CgalMesh cgalMesh = toCgal(mesh);
+  if (remeshEdgeLength > 0)
+    CGAL::Polygon_mesh_processing::isotropic_remeshing(faces(cgalMesh), remeshEdgeLength, cgalMesh);
+  if (triangleBudget > 0 && cgalMesh.number_of_faces() > triangleBudget) {
+    namespace SMS = CGAL::Surface_mesh_simplification;
+    // Stops below a number of edges; a closed triangle mesh has 3/2 edges per face.
+    SMS::Count_stop_predicate<CgalMesh> stop(triangleBudget * 3 / 2);
+    SMS::edge_collapse(cgalMesh, stop);
   }
+  cgalMesh.collect_garbage();
+  mesh = fromCgal(cgalMesh);
+  return true;
 }
 
 } // namespace cascade::surfacing::detail

@@ -16,7 +16,8 @@
 namespace cascade::surfacing::detail {
 
 /// Remeshes `mesh` (edge length > 0) and/or decimates it to at most `triangleBudget`
-/// triangles (> 0), in place. Normals are dropped (the caller recomputes them).
-void remeshAndDecimate(TriangleMesh& mesh, double remeshEdgeLength, std::size_t triangleBudget);
+/// triangles (> 0), in place. Returns whether it did either (then the normals are
+/// gone; the caller recomputes them); false leaves the mesh untouched.
+bool remeshAndDecimate(TriangleMesh& mesh, double remeshEdgeLength, std::size_t triangleBudget);
 
 } // namespace cascade::surfacing::detail

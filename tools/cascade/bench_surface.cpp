@@ -114,9 +114,9 @@ BenchTable benchSurface() {
     // CASCADE_BENCH_SURFACE_KEEP=DIR keeps the outputs as DIR/METHOD.vdb and .obj (to compare versions).
     if (const char* keep = std::getenv("CASCADE_BENCH_SURFACE_KEEP")) {
       fs::create_directories(keep);
-      for (const char* extension : {".vdb", ".obj"})
-        fs::copy_file(dir / (extension == std::string(".vdb") ? "surface.vdb" : "fluid.obj"),
-                      fs::path(keep) / (rows.back().method + extension), fs::copy_options::overwrite_existing);
+      for (const char* name : {"surface.vdb", "fluid.obj"})
+        fs::copy_file(dir / name, fs::path(keep) / (rows.back().method + fs::path(name).extension().string()),
+                      fs::copy_options::overwrite_existing);
     }
     std::cerr << "bench surface: " << rows.back().method << " files: VDB " << fs::file_size(dir / "surface.vdb") / 1e6
               << " MB (" << result.activeVoxels << " active voxels), OBJ " << fs::file_size(dir / "fluid.obj") / 1e6
