@@ -80,7 +80,7 @@ struct Solver {
   double expectedSpeed = 0;          ///< m/s; 0: derived (free fall height, emitter speeds)
   double instabilitySpeedFactor = 20;
   double densityTolerance = 0.0005;  ///< dfsph
-  double divergenceTolerance = 0.001;///< dfsph
+  double divergenceTolerance = 0.0002;///< dfsph (SolverSettings.h)
   std::int64_t maxIterations = 100;  ///< dfsph
   double supportFactor = 2.0;        ///< support radius h = support_factor * spacing
   double cfl = 0.4;

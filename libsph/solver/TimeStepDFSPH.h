@@ -9,8 +9,11 @@
 ///   1. one pass over the pairs (prepare): density rho_i = rho_0 (V W_ii + sum_j V W_ij)
 ///      over fluid and mirror neighbours (B&K 2017 eq. 5 in volume form; cubic spline
 ///      kernel, V the rest volume of the initial lattice), the factor alpha_i = 1 / D_i
-///      with D_i = |sum_j V grad W_ij|^2 + sum_j |V grad W_ij|^2 (B&K 2017 eq. 10; with
-///      mirrors, a particle's own images move with it and enter D_i), the pair terms
+///      with D_i = |sum_j V grad W_ij|^2 + sum_j |V grad W_ij|^2 (B&K 2017 eq. 10); with
+///      mirrors D_i is the exact diagonal of the solves' operator: i's own images move
+///      with it, and kappa_i reaches each neighbour j both by the pair and by j's images
+///      of i, which i sees again through its images of j (eq. 10 alone is up to 1.57 x
+///      too small there, measured), the pair terms
 ///      V grad W_ij kept for the solves (neighbours with grad W = 0 dropped, one 16-byte
 ///      stream; the AVX2 pass, eight neighbours at a time, keeps them with a zero gradient),
 ///      the density change rate of the initial velocities, and the non-pressure
@@ -101,11 +104,22 @@ public:
   };
   const Statistics& lastStatistics() const { return mStatistics; }
 
+  /// Checks of the solves' operator, valid after a step (its pair terms): the
+  /// density rate of particle i per unit stiffness increment of i alone, over -dt
+  /// (the diagonal as the sweeps apply it: O(n) per call), and the factor
+  /// alpha_i the sweeps divide by (1 / that diagonal; 0 for a lone particle).
+  Real operatorDiagonal(std::size_t i) const { return operatorEntry(i, i); }
+  /// The density rate of particle i per unit stiffness increment of particle j alone, over -dt.
+  Real operatorEntry(std::size_t i, std::size_t j) const;
+  Real factor(std::size_t i) const { return i < mFactor.size() ? mFactor[i] : Real(0); }
+
 private:
   void prepare(StepContext& context);
   void applyWallShear(StepContext& context, Real dt);
   void applyStep(std::vector<Vec3r>& velocity, std::vector<Real>& kappa, Real dt);
   Real densityRate(const std::vector<Vec3r>& velocity, std::size_t i) const;
+  /// sum_j (s_i + s_j) V grad W_ij over fluid and mirror neighbours (the velocity change is -dt x this).
+  Vec3r velocityChange(const Real* step, std::size_t i) const;
 
   // State (follows the particles, saved in checkpoints): warm starts, m^2/s^2.
   std::vector<Real> mDensityKappa, mDivergenceKappa;
