@@ -81,7 +81,7 @@ struct Solver {
   double instabilitySpeedFactor = 20;
   double densityTolerance = 0.0005;  ///< dfsph
   double divergenceTolerance = 0.0002;///< dfsph (SolverSettings.h)
-  std::int64_t maxIterations = 100;  ///< dfsph
+  std::int64_t maxIterations = 300;  ///< dfsph (SolverSettings.h)
   double supportFactor = 2.0;        ///< support radius h = support_factor * spacing
   double cfl = 0.4;
   double dtMin = 1e-6;
