@@ -38,18 +38,18 @@ constexpr Real kDensityWarmStart = Real(0.5);     // constant-density solve: hal
 constexpr int kMinDensityIterations = 1;          // sweeps after the warm start
 // Constant-density sweeps (issue 7): kappa_i += omega r_i alpha_i / dt^2 + beta (the last
 // sweep's increment of i). With omega = 1 and no momentum (B&K 2017, SPlisHSPlasH) a sweep
-// overshoots (every neighbour corrects the same error at once; near mirrors eq. 10 alone
-// also underestimated the diagonal by up to 1.57 x: the neighbours' images of i, now in
-// alpha_i, imageCouplings) and a compression-only solve cannot take an overshoot back: each step left kicks
-// in the velocities, and a resting 36-layer column's floor pressure swung by +-45 % of
-// rho g H from step to step (measured; 72 layers: +-60 %, largest compression 1.6-2.8 %).
-// omega < 1 alone quiets it but rebuilds the pressure the half warm start leaves out by
-// diffusion (62 sweeps a step at 36 layers, over 100 at 72); the momentum term (Polyak's
-// heavy ball, 1964) carries that slow, deep part: 37 sweeps a step at 36 layers (floor pressure spread 1 %),
-// 41 at 72 (bench tank: spread 11-31 %, floor pressure within 1.4 %, largest compression
-// 0.3 %; a narrow 72-layer column still rings again after 0.5 s: issue 7 open there).
-// Measured on the 36-layer tank: omega + beta <= 1.2 is quiet, 1.3 rings again.
-constexpr Real kDensityRelaxation = Real(0.6);  // omega
+// overshoots (every neighbour corrects the same error at once) and a compression-only
+// solve cannot take an overshoot back: each step left kicks in the velocities, and a
+// resting 36-layer column's floor pressure swung by +-45 % of rho g H from step to step
+// (measured; 72 layers: +-60 %, largest compression 1.6-2.8 %). omega < 1 alone quiets
+// it but rebuilds the pressure the half warm start leaves out by diffusion (62 sweeps a
+// step at 36 layers, over 100 at 72); the momentum term (Polyak's heavy ball, 1964)
+// carries that slow, deep part. Measured on the 36-layer column: omega + beta <= 1.2 is
+// quiet, 1.3 (0.8 + 0.5) or beta = 0.6 rings again. With the exact diagonal
+// (imageCouplings; eq. 10 alone overstated alpha_i near walls by up to 1.57 x, a larger
+// step there) omega 0.7 takes 23 sweeps a step where 0.6 takes 30 (bench dam break and
+// tank at a/27), equally quiet (36 layers: 2.0 mm/s).
+constexpr Real kDensityRelaxation = Real(0.7);  // omega
 constexpr Real kDensityMomentum = Real(0.5);    // beta
 // The constant-density solve stops at this share of densityTolerance: the compression
 // measured at the next step exceeds the solve's linear prediction (particles moved,

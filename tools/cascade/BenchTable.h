@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <variant>
 #include <vector>
@@ -28,10 +29,18 @@ public:
   /// Writes the JSON form, atomically.
   void writeJson(const std::filesystem::path& path) const;
 
+  /// Work that needs the results but may fail (a plot): run by `cascade bench` after
+  /// the table is printed and its JSON written, so a failure there loses neither.
+  void setFinish(std::function<void()> finish) { mFinish = std::move(finish); }
+  void finish() const {
+    if (mFinish) mFinish();
+  }
+
 private:
   std::string mBench;
   std::vector<std::string> mColumns;
   std::vector<std::vector<Value>> mRows;
+  std::function<void()> mFinish;
 };
 
 } // namespace cascade::cli

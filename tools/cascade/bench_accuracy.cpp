@@ -234,6 +234,7 @@ void writePlot(const std::vector<Row>& rows, const std::filesystem::path& png) {
   std::map<std::string, std::vector<const Row*>> bySolver;
   for (const Row& r : rows) bySolver[r.solver].push_back(&r);
   std::ostringstream plot;
+  if (png.has_parent_path()) std::filesystem::create_directories(png.parent_path());  // as the JSON's writer does
   const std::filesystem::path temp = png.string() + ".tmp.png";
   // pngcairo if this gnuplot has it, else the libgd png terminal.
   plot << "if (strstrt(GPVAL_TERMINALS, 'pngcairo') > 0) { set terminal pngcairo size 900,650 enhanced font 'sans,11' }"
@@ -312,10 +313,11 @@ BenchTable benchAccuracy() {
     png = paths.plot;
   else if (!paths.json.empty())
     png = std::filesystem::path(paths.json).replace_extension(".png");
-  if (!png.empty()) {
-    writePlot(rows, png);
-    std::fprintf(stderr, "bench accuracy: plot written to %s\n", png.string().c_str());
-  }
+  if (!png.empty())
+    table.setFinish([rows, png] {
+      writePlot(rows, png);
+      std::fprintf(stderr, "bench accuracy: plot written to %s\n", png.string().c_str());
+    });
   return table;
 }
 

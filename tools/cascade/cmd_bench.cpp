@@ -35,6 +35,7 @@ void addBenchCommand(CLI::App& app) {
     const BenchTable table = kinds.at(options->kind)();
     std::cout << table.format() << std::flush;
     if (!options->json.empty()) table.writeJson(options->json);
+    table.finish();
   });
 }
 
