@@ -31,7 +31,7 @@
 ///      kappa_i = (rho*_i / rho_0 - 1) alpha_i / dt^2, the same velocity update,
 ///      until the mean (rho*_i - rho_0) / rho_0 is below densityTolerance (at least
 ///      one sweep after the warm start, at most maxIterations); the sweeps are
-///      under-relaxed (omega = 0.7) with a momentum term (beta = 0.5 x the particle's
+///      under-relaxed (omega = 0.6) with a momentum term (beta = 0.5 x the particle's
 ///      last increment): unrelaxed sweeps overshoot, which a compression-only solve
 ///      cannot take back, and left a resting tall column's pressure ringing from step
 ///      to step (issue 7; constants and measurements in TimeStepDFSPH.cpp);

@@ -101,10 +101,10 @@ TEST(DFSPHColumn, ThirtySixLayersHoldHydrostaticPressureStepByStep) {
 // KNOWN FAILURE (issue 7, open), on the step-to-step spread only. Session 4: quiet at
 // 0.5 s (floor 1.010, spread 0.24, max 0.35 %) but by 0.8 s the column rang (floor 1.054,
 // spread 0.83, max 1.47 %, 1.5 cm/s) after solves that hit 100 sweeps. With the exact
-// diagonal, the 0.02 % divergence tolerance, omega 0.7 and up to 300 sweeps (57 a step on
-// average): floor 1.016, max 0.25 %, 3.8 mm/s, but a spread of 0.21: the relaxed sweeps
-// stop on the average compression with the deep (whole-column) mode still unconverged,
-// and its floor pressure varies by 21 % from step to step. Tried and measured, no better: full or
+// diagonal, the 0.02 % divergence tolerance and up to 300 sweeps (63 a step on average):
+// floor 1.007, max 0.27 %, 4.1 mm/s, but a spread of 0.20: the relaxed sweeps stop on the
+// average compression with the deep (whole-column) mode still unconverged, and its
+// floor pressure varies by 20 % from step to step. Tried and measured, no better: full or
 // 0.7-0.9 warm starts (with or without sweeps that may lower the pressure), warm starts
 // from the lower of the last two steps, and a first trial of conjugate gradients on the
 // active set (it left local compressions of 1-5 %).
