@@ -503,8 +503,9 @@ void TimeStepDFSPH::prepare(StepContext& c) {
     } else {
       // With mirrors: i's own images move with it (their pair takes 2 kappa_i and
       // the mirrored velocity change), so the diagonal of the density change per
-      // kappa_i is g^.g~ + sum |G|^2 - sum_self (L g~) . G_ii' with g~ the
-      // velocity-change direction (own images counted twice).
+      // kappa_i is g^.g~ + sum_fluid |g|^2 - sum_self (L g~) . G_ii' with g~ the
+      // velocity-change direction (own images counted twice), plus what reaches i
+      // back through each neighbour's images (imageCouplings).
       Vec3r change = gradientSum;
       std::vector<ImageSums>& images = imageScratch();
       images.clear();
