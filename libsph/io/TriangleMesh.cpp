@@ -194,8 +194,8 @@ constexpr std::size_t kObjBlockLines = 16384;
 constexpr std::size_t kObjBlocksInFlight = 8;
 constexpr std::size_t kMaxVectorLine = 4 + 3 * 33 + 1;    // "vn" and three floats
 constexpr std::size_t kMaxFaceLine = 2 + 3 * (2 * 20 + 3) + 1;
-constexpr std::size_t kObjLineSlack = 32;
-constexpr std::size_t kObjWritebackChunk = std::size_t(32) << 20;  // bytes  // fixed-size stores run up to 16 bytes past a line's end
+constexpr std::size_t kObjLineSlack = 32;  // fixed-size stores run up to 16 bytes past a line's end
+constexpr std::size_t kObjWritebackChunk = std::size_t(32) << 20;  // bytes written between writeback starts
 
 } // namespace
 
