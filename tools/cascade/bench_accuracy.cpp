@@ -42,6 +42,7 @@
 
 #include "libsph/Errors.h"
 #include "libsph/boundary/BoxBoundary.h"
+#include "libsph/probes/ExperimentComparison.h"
 #include "libsph/probes/Probes.h"
 #include "libsph/solver/Simulation.h"
 #include "libsph/solver/TimeStepDFSPH.h"
@@ -78,12 +79,12 @@ constexpr double kReleaseShift = 0.175;
 
 // Martin & Moyce (1952) Table 2, n^2 = 2: surge front (Z = x/a, T = t sqrt(2g/a)).
 // Source: /work/shared/validation/martin_moyce_1952_n2_2_surge_front_table.csv (T_ocellaris).
-const std::vector<std::pair<double, double>> kFrontTable = {
+const TimeSeries kFrontTable = {
     {0.41, 1.11}, {0.84, 1.22}, {1.19, 1.44}, {1.43, 1.67}, {1.63, 1.89}, {1.83, 2.11}, {1.98, 2.33}, {2.2, 2.56},
     {2.32, 2.78}, {2.51, 3.0},  {2.65, 3.22}, {2.83, 3.44}, {2.98, 3.67}, {3.11, 3.89}, {3.33, 4.11}};
 // Martin & Moyce (1952) Table 6, n^2 = 2: residual column at the back wall (H = h/(2a), tau = t sqrt(g/a)).
 // Source: /work/shared/validation/martin_moyce_1952_n2_2_column_height_table.csv.
-const std::vector<std::pair<double, double>> kHeightTable = {
+const TimeSeries kHeightTable = {
     {0.56, 0.94}, {0.77, 0.89}, {0.93, 0.83}, {1.08, 0.78}, {1.28, 0.72}, {1.46, 0.67},
     {1.66, 0.61}, {1.84, 0.56}, {2.0, 0.5},   {2.21, 0.44}, {2.45, 0.39}, {2.7, 0.33},
     {3.06, 0.28}, {3.44, 0.22}, {4.2, 0.17},  {5.25, 0.11}, {7.4, 0.06}};
@@ -117,34 +118,6 @@ SimulationSettings settingsFor(const std::string& solver, double spacing) {
   return settings;
 }
 
-/// Linear interpolation of a sampled series at t (NaN outside).
-double interpolate(const std::vector<std::pair<double, double>>& series, double t) {
-  for (std::size_t k = 1; k < series.size(); ++k)
-    if (series[k].first >= t) {
-      const auto& [t0, v0] = series[k - 1];
-      const auto& [t1, v1] = series[k];
-      const double w = t1 > t0 ? (t - t0) / (t1 - t0) : 1.0;
-      return v0 + w * (v1 - v0);
-    }
-  return std::nan("");
-}
-
-/// RMS of (sim - exp) / exp over the table rows (x in simulated-time units via scale;
-/// the table's time origin moved by `delay` seconds: sim time = x / scale - delay).
-double rmsError(const std::vector<std::pair<double, double>>& table, double timeScale,
-                const std::vector<std::pair<double, double>>& series, int& points, double delay = 0) {
-  double sum = 0;
-  points = 0;
-  for (const auto& [x, expected] : table) {
-    const double value = interpolate(series, x / timeScale - delay);
-    if (!std::isfinite(value)) continue;
-    const double error = (value - expected) / expected;
-    sum += error * error;
-    ++points;
-  }
-  return points > 0 ? std::sqrt(sum / points) : std::nan("");
-}
-
 struct Row {
   std::string solver;
   double spacing = 0;
@@ -172,7 +145,7 @@ void runDamBreak(Row& row) {
   Simulation sim(settingsFor(row.solver, s));
   sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(Real(8 * kA), Real(width), Real(4 * kA)), false, kSlabSides));
   row.fluid = static_cast<long long>(sim.addFluidBox(Vec3r(0, 0, 0), Vec3r(Real(kA), Real(width), Real(2 * kA))));
-  std::vector<std::pair<double, double>> front, height;
+  TimeSeries front, height;
   auto sample = [&] {
     const auto& positions = sim.particles().position;
     front.emplace_back(sim.time(), surgeFront(positions, Vec3r::UnitX(), Real(s)) / kA);
@@ -193,8 +166,7 @@ void runDamBreak(Row& row) {
   row.msPerStep = 1e3 * row.wall / row.steps;
   // The tables' dimensionless times: T = t sqrt(2g/a) (surge front), tau = t sqrt(g/a) (column height).
   const double frontTimeScale = std::sqrt(2 * kStandardGravity / kA), heightTimeScale = std::sqrt(kStandardGravity / kA);
-  int frontPoints = 0, heightPoints = 0;
-  row.frontRms = rmsError(kFrontTable, frontTimeScale, front, frontPoints);
+  row.frontRms = relativeRmsError(kFrontTable, frontTimeScale, front).rms;
   if (const char* dir = std::getenv("CASCADE_ACCURACY_CURVES"); dir && *dir) {
     // The probe series for convergence studies: t, Z = x/a, T = t sqrt(2g/a), H, tau.
     // The directory was created before the first run; a failed write costs this file only.
@@ -208,11 +180,11 @@ void runDamBreak(Row& row) {
     out.close();
     if (!out) std::fprintf(stderr, "bench accuracy: warning: %s: could not write the curves\n", file.string().c_str());
   }
-  row.heightRms = rmsError(kHeightTable, heightTimeScale, height, heightPoints);
+  row.heightRms = relativeRmsError(kHeightTable, heightTimeScale, height).rms;
   // Both tables with the experiment's time origin moved by the release shift (T units).
   const double delay = releaseShift() / frontTimeScale;
-  row.frontRmsRelease = rmsError(kFrontTable, frontTimeScale, front, frontPoints, delay);
-  row.heightRmsRelease = rmsError(kHeightTable, heightTimeScale, height, heightPoints, delay);
+  row.frontRmsRelease = relativeRmsError(kFrontTable, frontTimeScale, front, delay).rms;
+  row.heightRmsRelease = relativeRmsError(kHeightTable, heightTimeScale, height, delay).rms;
 }
 
 void runHydrostatic(Row& row) {
