@@ -18,9 +18,9 @@
 // Errors are fractions (0.03 = 3 %). front_rms and height_rms compare with the
 // experiment's own time origin (raw). front_rms_release and height_rms_release
 // compare with its time origin moved by kReleaseShift (T = 0.175, the correction
-// codes that match the table apply, e.g. Lethe's Martin & Moyce example, for the
-// finite removal of the column's diaphragm): both, so that the shift's effect on the
-// column height, which fits best unshifted, is in the table too. Prints the table,
+// codes that match the table apply, e.g. Lethe's Martin & Moyce example, attributed
+// to the column's release): both, so that the shift's effect on the column height,
+// which fits best unshifted, is in the table too. Prints the table,
 // and with --json writes it and a log-log plot (gnuplot, pngcairo or png) of front
 // error against wall time, one line per solver, next to the JSON (or to --plot).
 //
