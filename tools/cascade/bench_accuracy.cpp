@@ -31,7 +31,7 @@
 //
 // Environment (for quick runs): CASCADE_ACCURACY_SOLVERS="wcsph,dfsph",
 // CASCADE_ACCURACY_RESOLUTIONS="8,12,18,27,36,54" (a / s, particles across the column;
-// a/54 is the finest spacing whose dam break bakes in under 60 s here, both solvers).
+// a/54 bakes in 23-29 s here; a/72 would take over 60 s, scaled by particles and steps).
 // Diagnostics (convergence studies): CASCADE_ACCURACY_SLIP=free|no|laminar,
 // CASCADE_ACCURACY_VISCOSITY (Pa s), CASCADE_ACCURACY_ARTIFICIAL_VISCOSITY (alpha),
 // CASCADE_ACCURACY_DENSITY_TOLERANCE (DFSPH), CASCADE_ACCURACY_TANK_ONLY=1 (no dam break),
