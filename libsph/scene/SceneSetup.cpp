@@ -5,6 +5,7 @@
 #include "libsph/boundary/MeshBoundary.h"
 #include "libsph/boundary/PlaneBoundary.h"
 #include "libsph/scene/FluidSources.h"
+#include "libsph/solver/TimeStepDFSPH.h"
 
 #include <Eigen/Geometry>
 
@@ -150,6 +151,23 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
     const Vec3r velocity = toVec(block.velocity);
     for (const Vec3r& p : blockPositions(block, scene.fluid.spacing)) simulation.addParticle(p, velocity);
   }
+  if (const int layers = deepestFluidLayers(scene); log && scene.solver.type == "dfsph" && layers > kDfsphStillWaterLayers)
+    *log << "warning: a fluid block stacks " << layers << " particle layers; beyond about " << kDfsphStillWaterLayers
+         << " DFSPH does not hold resting water still (README, Solvers and their limits): use solver.type=wcsph "
+            "or a coarser fluid.spacing\n";
+}
+
+int deepestFluidLayers(const Scene& scene) {
+  const Vec3d gravity(scene.gravity[0], scene.gravity[1], scene.gravity[2]);
+  if (!(gravity.norm() > 0)) return 0;
+  const Vec3d down = gravity.normalized();
+  int deepest = 0;
+  for (const FluidBlock& block : scene.fluid.blocks) {
+    double extent = 0;  // of the box along gravity
+    for (int k = 0; k < 3; ++k) extent += std::abs(down[k]) * (block.box.max[k] - block.box.min[k]);
+    deepest = std::max(deepest, int(std::floor(extent / scene.fluid.spacing + 1e-6)));
+  }
+  return deepest;
 }
 
 std::size_t initialParticleCount(const Scene& scene) {

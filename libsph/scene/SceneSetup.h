@@ -24,10 +24,16 @@ SimulationSettings simulationSettings(const Scene& scene);
 
 /// Adds the scene's boundaries (in scene order: tank, planes, slopes,
 /// obstacles) and initial fluid blocks to `simulation`. Mesh loading and
-/// simplification are logged to `log` if not null.
+/// simplification are logged to `log` if not null, and so is a warning when a
+/// dfsph scene starts with water deeper than DFSPH holds still
+/// (kDfsphStillWaterLayers).
 void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* log);
 
 /// The number of fluid particles the blocks hold at the start.
 std::size_t initialParticleCount(const Scene& scene);
+
+/// The most particle layers any fluid block stacks along gravity (its extent along
+/// gravity over the spacing); 0 without blocks or gravity.
+int deepestFluidLayers(const Scene& scene);
 
 } // namespace cascade::scene
