@@ -261,9 +261,10 @@ TEST(BoxBoundary, SymmetryFacesMarkTheirMirrorMaps) {
 // walls the mirrors couple i to itself (its own images) and to its neighbours twice
 // (the pair and each image of j, and j's images of i); without the neighbour terms
 // alpha_i was up to 1.57 x too large here (1.28 x at one wall, 1.43 x at edges,
-// measured in session 4), so the sweeps took larger steps near walls than intended. A block of water in a tank corner (walls, a symmetry plane, edges
-// and corners), after a few steps so that it is no longer a lattice; every slip model
-// (the image velocity map enters the diagonal).
+// measured in session 4), so the sweeps took larger steps near walls than intended.
+// A block of water in a tank corner (walls, a symmetry plane, edges and corners),
+// after a few steps so that it is no longer a lattice; every slip model (the image
+// velocity map enters the diagonal).
 TEST(DFSPH, FactorIsTheInverseOfTheOperatorDiagonalNearWallsEdgesAndCorners) {
   for (MirrorSlip slip : {MirrorSlip::FreeSlip, MirrorSlip::NoSlip, MirrorSlip::LaminarWallShear}) {
     const Real spacing = Real(0.01);
