@@ -155,6 +155,10 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
     *log << "warning: a fluid block stacks " << layers << " particle layers; beyond about " << kDfsphStillWaterLayers
          << " DFSPH does not hold resting water still (README, Solvers and their limits): use solver.type=wcsph "
             "or a coarser fluid.spacing\n";
+  if (log && scene.solver.type == "dfsph" && scene.solver.cfl > double(kDfsphMaxCfl))
+    *log << "warning: solver.cfl " << scene.solver.cfl << " is above the " << kDfsphMaxCfl
+         << " DFSPH holds (faster steps carry particles into obstacles; README, Solvers and their limits): steps use "
+         << kDfsphMaxCfl << "\n";
 }
 
 int deepestFluidLayers(const Scene& scene) {

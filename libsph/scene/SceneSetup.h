@@ -26,7 +26,7 @@ SimulationSettings simulationSettings(const Scene& scene);
 /// obstacles) and initial fluid blocks to `simulation`. Mesh loading and
 /// simplification are logged to `log` if not null, and so is a warning when a
 /// dfsph scene starts with water deeper than DFSPH holds still
-/// (kDfsphStillWaterLayers).
+/// (kDfsphStillWaterLayers) or asks for a CFL factor above the one it holds (kDfsphMaxCfl).
 void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* log);
 
 /// The number of fluid particles the blocks hold at the start.

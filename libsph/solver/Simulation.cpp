@@ -297,10 +297,12 @@ double Simulation::computeTimeStep() const {
       [](Real a, Real b) { return std::max(a, b); });
   const double h = mConstants.supportRadius;
   const double maxSpeed = std::sqrt(double(maxSpeed2));
-  double dt = solver.cflFactor * h / (double(mConstants.speedOfSound) + maxSpeed);
+  const TimeStepNeeds needs = mTimeStep->needs(mSettings, mConstants);
+  const double cfl = needs.maxCflFactor > 0 ? std::min(solver.cflFactor, needs.maxCflFactor) : solver.cflFactor;
+  double dt = cfl * h / (double(mConstants.speedOfSound) + maxSpeed);
   const double nu = mSettings.fluid.viscosity / mSettings.fluid.restDensity;
   if (nu > 0) dt = std::min(dt, 0.125 * h * h / nu);
-  const double forceFactor = mTimeStep->needs(mSettings, mConstants).forceStepFactor;
+  const double forceFactor = needs.forceStepFactor;
   // Gravity acts on every particle: a bound on the first step too (before any step's
   // acceleration is known; a 5 ms first step launched a resting 72-layer DFSPH column).
   const double maxAcceleration = std::max(double(mLastMaxAcceleration), double(solver.gravity.norm()));

@@ -73,6 +73,9 @@ struct TimeStepNeeds {
   Real sampleRadius = 0;
   /// Force limit of the time step: dt <= forceStepFactor sqrt(h / a_max).
   Real forceStepFactor = Real(0.25);
+  /// Largest CFL factor the method holds; a larger SolverSettings::cflFactor is
+  /// used as this (0: no cap).
+  Real maxCflFactor = Real(0);
 };
 
 class TimeStep {

@@ -281,6 +281,7 @@ TimeStepNeeds TimeStepDFSPH::needs(const SimulationSettings&, const DerivedConst
   // hydrostatic slab then holds only 0.1 % average compression (0.047 % at 0.06) and moves
   // at 0.03 m/s RMS.
   needs.forceStepFactor = Real(0.06);
+  needs.maxCflFactor = kDfsphMaxCfl;
   return needs;
 }
 

@@ -143,6 +143,27 @@ std::unique_ptr<Simulation> smallDamBreak() {
 }
 } // namespace
 
+// The CFL cap (kDfsphMaxCfl): where the velocity sets the step, a larger factor gives DFSPH
+// the step of the cap; WCSPH takes the factor as given.
+TEST(DFSPH, CflFactorAboveTheCapGivesTheCappedStep) {
+  auto firstStep = [](const std::string& solver, Real cfl) {
+    SimulationSettings s = dfsphSettings(Real(0.01));
+    s.solver.type = solver;
+    s.solver.cflFactor = cfl;
+    s.solver.gravity = Vec3r::Zero();  // no force limit before the first step
+    s.solver.maxTimeStep = Real(1);
+    s.boundary.repulsionParticles = false;  // (WCSPH: no r0 travel limit)
+    Simulation sim(s);
+    sim.addFluidBox(Vec3r(0, 0, 0), Vec3r(0.05, 0.05, 0.05), Vec3r(10, 0, 0));
+    return sim.nextTimeStep();
+  };
+  const double h = 0.02, speed = 10;
+  EXPECT_NEAR(firstStep("dfsph", Real(0.3)), 0.3 * h / speed, 1e-9);
+  EXPECT_NEAR(firstStep("dfsph", kDfsphMaxCfl), double(kDfsphMaxCfl) * h / speed, 1e-9);
+  EXPECT_NEAR(firstStep("dfsph", Real(2)), double(kDfsphMaxCfl) * h / speed, 1e-9);
+  EXPECT_NEAR(firstStep("wcsph", Real(2)) / firstStep("wcsph", Real(0.5)), 4.0, 1e-6);
+}
+
 TEST(DFSPH, WarmStartsFollowReorderRemovalAndCheckpoints) {
   // Uninterrupted run, against one saved after 60 steps and restored into a fresh
   // simulation: the warm starts (and all else) must carry over bit for bit.

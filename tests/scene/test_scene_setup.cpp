@@ -59,3 +59,15 @@ TEST(SceneSetup, WarnsWhenDfsphWaterIsDeeperThanItHoldsStill) {
   EXPECT_EQ(setUpLog(column(0.01 * limit, "dfsph")).find("warning"), std::string::npos);
   EXPECT_EQ(setUpLog(column(0.01 * (limit + 10), "wcsph")).find("warning"), std::string::npos);
 }
+
+TEST(SceneSetup, WarnsWhenADfsphCflFactorIsAboveItsCap) {
+  Scene scene = column(0.1, "dfsph");
+  scene.solver.cfl = 1.0;
+  const std::string log = setUpLog(scene);
+  EXPECT_NE(log.find("warning: solver.cfl 1 is above the 0.5 DFSPH holds"), std::string::npos) << log;
+  scene.solver.cfl = double(kDfsphMaxCfl);
+  EXPECT_EQ(setUpLog(scene).find("warning"), std::string::npos);
+  scene.solver.type = "wcsph";
+  scene.solver.cfl = 1.0;
+  EXPECT_EQ(setUpLog(scene).find("warning"), std::string::npos);
+}
