@@ -89,6 +89,19 @@ public:
   /// True if x lies inside the solid (where no fluid may be).
   virtual bool isInside(const Vec3r& x) const = 0;
 
+  /// Simulation's guard after each step: true if a particle that moved from `from`
+  /// (outside) to `to` ended inside the solid; then `exit` is a point outside where it
+  /// may go (about `clearance` off the surface) and `normal` the outward direction
+  /// there. Default: isInside(to), back to `from`, the normal against the move.
+  virtual bool penetrated(const Vec3r& from, const Vec3r& to, Real clearance, Vec3r& exit, Vec3r& normal) const {
+    (void)clearance;
+    if (!isInside(to) || isInside(from)) return false;
+    exit = from;
+    const Vec3r back = from - to;
+    normal = back.norm() > 0 ? Vec3r(back.normalized()) : Vec3r::Zero();
+    return true;
+  }
+
   /// The solid's surface as triangles in world coordinates (one group, named name()).
   virtual TriangleMesh surfaceMesh() const = 0;
 

@@ -360,6 +360,20 @@ bool MeshBoundary::isInside(const Vec3r& x) const {
   return windingNumber(x) > 0.5;
 }
 
+bool MeshBoundary::penetrated(const Vec3r& from, const Vec3r& to, Real clearance, Vec3r& exit,
+                              Vec3r& normal) const {
+  const Impl& m = *mImpl;
+  for (int k = 0; k < 3; ++k)
+    if (to[k] < m.lo[k] || to[k] > m.hi[k]) return false;
+  Vec3d point;
+  const long t = m.closest(to.cast<double>(), double((to - from).norm()), point);
+  if (t < 0 || windingNumber(to) <= 0.5 || isInside(from)) return false;
+  normal = m.faceNormal[t].cast<Real>();
+  exit = point.cast<Real>() + clearance * normal;
+  if (isInside(exit)) exit = from;  // a crease: the face normal points into the solid's other side
+  return true;
+}
+
 bool MeshBoundary::closestPoint(const Vec3r& x, Real maxDistance, Vec3r& point, Vec3r& normal) const {
   Vec3d q;
   const long t = mImpl->closest(x.cast<double>(), double(maxDistance), q);

@@ -68,6 +68,11 @@ public:
   void mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryIndex,
                   std::vector<MirrorMap>& maps) const override;
   bool isInside(const Vec3r& x) const override;
+  /// The winding number only for a `to` within |to - from| of the surface (a point
+  /// that got inside from outside crossed the surface on the way; the rest of the
+  /// boundary layer costs one closest-triangle query). Exit: `clearance` off the
+  /// closest surface point along its face normal (`from` if that is inside too).
+  bool penetrated(const Vec3r& from, const Vec3r& to, Real clearance, Vec3r& exit, Vec3r& normal) const override;
   TriangleMesh surfaceMesh() const override;
   void bounds(Vec3r& lo, Vec3r& hi) const override;
 

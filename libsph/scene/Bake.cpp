@@ -267,7 +267,10 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
                                              result.wallSeconds
                                        : 0.0,
                 result.particles, static_cast<unsigned long long>(result.removed));
-  progress.finish(summary);
+  std::string line = summary;
+  if (const std::uint64_t keptOut = simulation.keptOutCount(); keptOut > 0)
+    line += ", " + std::to_string(keptOut) + " put back out of solids (steps that carried them in)";
+  progress.finish(line);
   return result;
 }
 

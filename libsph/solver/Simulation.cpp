@@ -374,9 +374,15 @@ double Simulation::step() {
 
   mAcceleration.resize(mParticles.size());
   mObstacleForce.assign(mBoundaries.size(), Vec3d::Zero());
+  const std::vector<std::uint32_t>& layer = mBoundaryParticles.layer();
+  mLayerStart.resize(layer.size());
+  for (std::size_t k = 0; k < layer.size(); ++k) mLayerStart[k] = mParticles.position[layer[k]];
   StepContext context{mParticles, mNeighbors, mBoundaryParticles, mSettings, mConstants,
                       mAcceleration, mObstacleForce, mTimings, mTime, 0};
   mTimeStep->advance(context, static_cast<Real>(dt));
+  begin = Clock::now();
+  keepOutOfSolids();
+  mTimings.boundary += millisecondsSince(begin);
   mLastMaxAcceleration = context.maxAcceleration;
   mTime += dt;
   ++mStepCount;
@@ -437,6 +443,37 @@ void Simulation::removeOutside() {
   if (outside == 0) return;
   mRemovedCount += mParticles.removeIf(remove);
   mTimeStep->removeIf(remove);
+}
+
+/// The boundary models keep particles out of solids only as well as the step resolves
+/// the approach (DFSPH: a particle gliding along a mesh crease, 1 in a 10 m/s jet at
+/// 5 mm, measured). A particle of the step's boundary layer that ended inside a solid
+/// goes back out (a quarter spacing off the surface, or where the step started) and
+/// loses the part of its velocity into the solid: only energy is taken, and no
+/// particle stays in a solid.
+void Simulation::keepOutOfSolids() {
+  const std::vector<std::uint32_t>& layer = mBoundaryParticles.layer();
+  if (layer.empty() || mBoundaries.empty()) return;
+  const Real clearance = Real(0.25) * mSettings.fluid.spacing;
+  mKeptOutCount += tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, layer.size(), 256), std::uint64_t(0),
+      [&](const auto& range, std::uint64_t count) {
+        for (std::size_t k = range.begin(); k != range.end(); ++k) {
+          const std::uint32_t i = layer[k];
+          const Vec3r from = mLayerStart[k], to = mParticles.position[i];
+          Vec3r exit, normal;
+          for (const BoundaryPtr& b : mBoundaries) {
+            if (!b->penetrated(from, to, clearance, exit, normal)) continue;
+            Vec3r& v = mParticles.velocity[i];
+            v -= std::min(v.dot(normal), Real(0)) * normal;
+            mParticles.position[i] = exit;
+            ++count;
+            break;
+          }
+        }
+        return count;
+      },
+      std::plus<std::uint64_t>());
 }
 
 void Simulation::checkStability() const {

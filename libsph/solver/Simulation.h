@@ -85,6 +85,9 @@ public:
   std::size_t removeParticles(const std::vector<char>& remove);
   /// Particles removed because they left the domain, since the start.
   std::uint64_t removedCount() const { return mRemovedCount; }
+  /// Times a step had carried a particle of the boundary layer into a solid and the
+  /// guard put it back (keepOutOfSolids), since the start.
+  std::uint64_t keptOutCount() const { return mKeptOutCount; }
   /// The derived constants (valid after the first step or nextTimeStep()).
   const DerivedConstants& constants() const { return mConstants; }
   Real supportRadius() const;
@@ -134,6 +137,7 @@ private:
   std::vector<FluidBoxRecord> mPendingBoxes;
   void reorder();
   void removeOutside();
+  void keepOutOfSolids();
   void checkStability() const;
   double computeTimeStep() const;
 
@@ -150,7 +154,8 @@ private:
   StepTimings mTimings;
   double mTime = 0, mLastTimeStep = 0;
   Real mLastMaxAcceleration = 0;
-  std::uint64_t mStepCount = 0, mRemovedCount = 0;
+  std::uint64_t mStepCount = 0, mRemovedCount = 0, mKeptOutCount = 0;
+  std::vector<Vec3r> mLayerStart;  // positions of the boundary layer at the step's start
   ParticleId mNextId = 0;
   bool mStarted = false;
 };

@@ -328,6 +328,33 @@ TEST(MeshBoundary, CubeInsideTestMirrorsAndTransform) {
   std::filesystem::remove(path);
 }
 
+// The guard after each step (Simulation::keepOutOfSolids): a move that ends inside is
+// reported with an exit point outside, clearance off the face it came through, and the
+// face's outward normal; moves that end outside, or start inside, are not.
+TEST(MeshBoundary, PenetratedGivesAnExitOffTheFaceCrossed) {
+  const auto path = writeTemp("cube.obj", kCubeObj);
+  auto cube = MeshBoundary::load(path, MeshObstacleOptions());  // [0, 1]^3
+  const Real clearance = 0.01f;
+  Vec3r exit, normal;
+  ASSERT_TRUE(cube->penetrated(Vec3r(0.5f, 0.5f, 1.02f), Vec3r(0.5f, 0.45f, 0.97f), clearance, exit, normal));
+  EXPECT_TRUE(normal.isApprox(Vec3r(0, 0, 1), 1e-6f)) << normal.transpose();
+  EXPECT_TRUE(exit.isApprox(Vec3r(0.5f, 0.45f, 1.01f), 1e-5f)) << exit.transpose();
+  EXPECT_FALSE(cube->isInside(exit));
+  // Through the side x = 0, from farther than the step's length: still found.
+  ASSERT_TRUE(cube->penetrated(Vec3r(-0.3f, 0.5f, 0.5f), Vec3r(0.1f, 0.5f, 0.5f), clearance, exit, normal));
+  EXPECT_TRUE(normal.isApprox(Vec3r(-1, 0, 0), 1e-6f)) << normal.transpose();
+  EXPECT_NEAR(exit.x(), -clearance, 1e-6f);
+  EXPECT_FALSE(cube->penetrated(Vec3r(0.5f, 0.5f, 1.05f), Vec3r(0.5f, 0.5f, 1.001f), clearance, exit, normal));
+  EXPECT_FALSE(cube->penetrated(Vec3r(0.5f, 0.5f, 0.5f), Vec3r(0.5f, 0.5f, 0.6f), clearance, exit, normal));
+  // A tank (default rule): back to where the move started, the normal against the move.
+  auto tank = BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(1, 1, 1));
+  ASSERT_TRUE(tank->penetrated(Vec3r(0.5f, 0.5f, 0.01f), Vec3r(0.5f, 0.5f, -0.01f), clearance, exit, normal));
+  EXPECT_TRUE(exit.isApprox(Vec3r(0.5f, 0.5f, 0.01f)));
+  EXPECT_TRUE(normal.isApprox(Vec3r(0, 0, 1), 1e-5f));
+  EXPECT_FALSE(tank->penetrated(Vec3r(0.5f, 0.5f, 0.5f), Vec3r(0.5f, 0.5f, 0.01f), clearance, exit, normal));
+  std::filesystem::remove(path);
+}
+
 TEST(MeshBoundary, OpenBoxIsClosedByHoleFilling) {
   // The cube without its top (two triangles): one square hole.
   std::string open = kCubeObj;

@@ -27,6 +27,7 @@ struct Outcome {
   double maxKinetic = 0;      ///< J, largest over the samples
   double energyBound = 0;     ///< J
   std::size_t leaked = 0;     ///< particles found through a wall or inside an obstacle
+  std::uint64_t keptOut = 0;  ///< times Simulation::keepOutOfSolids put a particle back out
   std::uint64_t steps = 0;
   double time = 0;
 };
@@ -85,6 +86,7 @@ inline Outcome run(Simulation& sim, std::uint64_t steps, double endTime, const s
   }
   out.steps = sim.stepCount();
   out.time = sim.time();
+  out.keptOut = sim.keptOutCount();
   return out;
 }
 
@@ -93,7 +95,7 @@ inline void expectStableOrStopped(const Outcome& o, const std::string& name) {
   std::cout << "[stress] " << name << ": "
             << (o.unstable ? "stopped (InstabilityError): " + o.message : std::string("stable"))
             << " | steps " << o.steps << ", t " << o.time << " s, max kinetic " << o.maxKinetic << " J (bound "
-            << o.energyBound << " J), leaked " << o.leaked << "\n";
+            << o.energyBound << " J), leaked " << o.leaked << ", put back out " << o.keptOut << "\n";
   // No particle may pass through a wall, also not in the frames before an instability stop
   // (those frames stay on disk and must be valid).
   EXPECT_EQ(o.leaked, 0u) << name;
@@ -159,9 +161,10 @@ inline Outcome thinSheet(const std::string& solver, double endTime) {
 /// A jet at `speed` into the bunny (scenes/assets/bunny_full.obj, 0.2 m, 900 triangles) in a tank; no particle may
 /// end inside it. cfl > 0 replaces the solver's CFL factor: at these speeds the velocity CFL, not the force limit,
 /// sets DFSPH's step (the dam break's 1.5 m/s leaves it to the force limit at any CFL factor).
-inline Outcome jetIntoBunny(const std::string& solver, double speed, double endTime, Real cfl = 0) {
+inline Outcome jetIntoBunny(const std::string& solver, double speed, double endTime, Real cfl = 0,
+                            Real spacing = Real(0.01)) {
   const std::string path = std::string(CASCADE_SOURCE_DIR) + "/scenes/assets/bunny_full.obj";
-  const Real s = Real(0.01);
+  const Real s = spacing;
   SimulationSettings settings = baseSettings(solver, s);
   if (cfl > 0) settings.solver.cflFactor = cfl;
   settings.solver.expectedSpeed = Real(speed);
