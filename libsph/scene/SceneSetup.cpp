@@ -147,9 +147,24 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
     mesh->setName(obstacle.name);
     simulation.addBoundary(std::move(mesh));
   }
-  for (const FluidBlock& block : scene.fluid.blocks) {
+  // A block that reaches into a solid (an obstacle, or past the tank's walls) fills only
+  // the space around it: particles inside a solid would stay trapped there.
+  for (std::size_t k = 0; k < scene.fluid.blocks.size(); ++k) {
+    const FluidBlock& block = scene.fluid.blocks[k];
     const Vec3r velocity = toVec(block.velocity);
-    for (const Vec3r& p : blockPositions(block, scene.fluid.spacing)) simulation.addParticle(p, velocity);
+    const std::vector<Vec3r> positions = blockPositions(block, scene.fluid.spacing);
+    std::size_t insideSolids = 0;
+    for (const Vec3r& p : positions) {
+      bool inside = false;
+      for (std::size_t b = 0; b < simulation.boundaryCount() && !inside; ++b) inside = simulation.boundary(b).isInside(p);
+      if (inside)
+        ++insideSolids;
+      else
+        simulation.addParticle(p, velocity);
+    }
+    if (insideSolids > 0 && log)
+      *log << "fluid block " << k + 1 << ": " << insideSolids << " of its " << positions.size()
+           << " particles lie inside solids and are left out\n";
   }
   if (const int layers = deepestFluidLayers(scene); log && scene.solver.type == "dfsph" && layers > kDfsphStillWaterLayers)
     *log << "warning: a fluid block stacks " << layers << " particle layers; beyond about " << kDfsphStillWaterLayers
@@ -172,12 +187,6 @@ int deepestFluidLayers(const Scene& scene) {
     deepest = std::max(deepest, int(std::floor(extent / scene.fluid.spacing + 1e-6)));
   }
   return deepest;
-}
-
-std::size_t initialParticleCount(const Scene& scene) {
-  std::size_t count = 0;
-  for (const FluidBlock& block : scene.fluid.blocks) count += blockPositions(block, scene.fluid.spacing).size();
-  return count;
 }
 
 } // namespace cascade::scene

@@ -23,14 +23,12 @@ namespace cascade::scene {
 SimulationSettings simulationSettings(const Scene& scene);
 
 /// Adds the scene's boundaries (in scene order: tank, planes, slopes,
-/// obstacles) and initial fluid blocks to `simulation`. Mesh loading and
+/// obstacles) and initial fluid blocks to `simulation`, without the block
+/// particles that lie inside a solid (logged). Mesh loading and
 /// simplification are logged to `log` if not null, and so is a warning when a
 /// dfsph scene starts with water deeper than DFSPH holds still
 /// (kDfsphStillWaterLayers) or asks for a CFL factor above the one it holds (kDfsphMaxCfl).
 void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* log);
-
-/// The number of fluid particles the blocks hold at the start.
-std::size_t initialParticleCount(const Scene& scene);
 
 /// The most particle layers any fluid block stacks along gravity (its extent along
 /// gravity over the spacing); 0 without blocks or gravity.

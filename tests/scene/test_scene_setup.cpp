@@ -1,6 +1,8 @@
 // Scene set-up (SceneSetup.h): the depth of the starting water in particle
 // layers, and the warning for dfsph scenes deeper than DFSPH holds still
-// (kDfsphStillWaterLayers; README, Solvers and their limits).
+// (kDfsphStillWaterLayers; README, Solvers and their limits); the warning for a
+// dfsph CFL factor above its cap; block particles inside solids left out.
+#include "libsph/scene/FluidSources.h"
 #include "libsph/scene/SceneSetup.h"
 #include "libsph/solver/TimeStepDFSPH.h"
 
@@ -70,4 +72,40 @@ TEST(SceneSetup, WarnsWhenADfsphCflFactorIsAboveItsCap) {
   scene.solver.type = "wcsph";
   scene.solver.cfl = 1.0;
   EXPECT_EQ(setUpLog(scene).find("warning"), std::string::npos);
+}
+
+TEST(SceneSetup, BlockParticlesInsideSolidsAreLeftOut) {
+  Scene scene;
+  scene.fluid.spacing = 0.05;
+  FluidBlock block;
+  block.box = {{0.6, 0, 0}, {1.2, 0.5, 0.5}};  // reaches 0.2 m past the tank's wall x = 1
+  scene.fluid.blocks = {block};
+  scene.boundaries.tank = Box{{0, 0, 0}, {1, 1, 1}};
+  Slope slab;  // a solid box in the block: x 0.7-0.9, y 0.1-0.3, z 0.1-0.2
+  slab.name = "slab";
+  slab.center = {0.8, 0.2, 0.15};
+  slab.size = {0.2, 0.2, 0.1};
+  scene.boundaries.slopes = {slab};
+  // Expected from the lattice itself: outside the tank, or within the slab.
+  std::size_t outside = 0, inSlab = 0;
+  const std::vector<Vec3r> lattice = blockPositions(block, scene.fluid.spacing);
+  for (const Vec3r& p : lattice) {
+    if (p.x() > 1) {
+      ++outside;
+    } else if (std::abs(p.x() - 0.8) <= 0.1 && std::abs(p.y() - 0.2) <= 0.1 && std::abs(p.z() - 0.15) <= 0.05) {
+      ++inSlab;
+    }
+  }
+  ASSERT_GT(outside, 0u);
+  ASSERT_GT(inSlab, 0u);
+  Simulation simulation(simulationSettings(scene));
+  std::ostringstream log;
+  setUpSimulation(scene, simulation, &log);
+  EXPECT_EQ(simulation.particles().size(), lattice.size() - outside - inSlab);
+  for (const Vec3r& p : simulation.particles().position)
+    for (std::size_t b = 0; b < simulation.boundaryCount(); ++b) EXPECT_FALSE(simulation.boundary(b).isInside(p));
+  EXPECT_NE(log.str().find("fluid block 1: " + std::to_string(outside + inSlab) + " of its " +
+                           std::to_string(lattice.size()) + " particles lie inside solids and are left out"),
+            std::string::npos)
+      << log.str();
 }
