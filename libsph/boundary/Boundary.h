@@ -90,9 +90,10 @@ public:
   virtual bool isInside(const Vec3r& x) const = 0;
 
   /// Simulation's guard after each step: true if a particle that moved from `from`
-  /// (outside) to `to` ended inside the solid; then `exit` is a point outside where it
-  /// may go (about `clearance` off the surface) and `normal` the outward direction
-  /// there. Default: isInside(to), back to `from`, the normal against the move.
+  /// (outside) to `to` entered the solid on the way (ended inside, or passed through
+  /// a thin part); then `exit` is a point outside where it may go (about `clearance`
+  /// off the surface where it entered) and `normal` the outward direction there.
+  /// Default: isInside(to), back to `from`, the normal against the move.
   virtual bool penetrated(const Vec3r& from, const Vec3r& to, Real clearance, Vec3r& exit, Vec3r& normal) const {
     (void)clearance;
     if (!isInside(to) || isInside(from)) return false;

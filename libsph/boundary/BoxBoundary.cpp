@@ -109,6 +109,50 @@ bool BoxBoundary::isInside(const Vec3r& x) const {
   return mTank ? !within : within;
 }
 
+bool BoxBoundary::penetrated(const Vec3r& from, const Vec3r& to, Real clearance, Vec3r& exit, Vec3r& normal) const {
+  const Vec3r a = mRotation.transpose() * (from - mCenter), b = mRotation.transpose() * (to - mCenter);
+  Vec3r local = Vec3r::Zero();
+  if (mTank) {
+    if (!isInside(to) || isInside(from)) return false;
+    Vec3r q = b;
+    for (int axis = 0; axis < 3; ++axis) {
+      if (q[axis] < -mHalf[axis]) {
+        q[axis] = -mHalf[axis] + clearance;
+        local[axis] = 1;
+      } else if (q[axis] > mHalf[axis] && faceIsWall(axis, 1)) {
+        q[axis] = mHalf[axis] - clearance;
+        local[axis] = -1;
+      }
+    }
+    exit = mCenter + mRotation * q;
+    normal = mRotation * local.normalized();
+    return true;
+  }
+  // Solid block: slab test of the segment a + t (b - a), t in [0, 1].
+  const Vec3r d = b - a;
+  Real enter = 0, leave = 1;
+  int entryAxis = -1;
+  for (int axis = 0; axis < 3; ++axis) {
+    if (d[axis] == 0) {
+      if (std::abs(a[axis]) > mHalf[axis]) return false;
+      continue;
+    }
+    const Real t0 = (-mHalf[axis] - a[axis]) / d[axis], t1 = (mHalf[axis] - a[axis]) / d[axis];
+    const Real near = std::min(t0, t1), far = std::max(t0, t1);
+    if (near > enter) {
+      enter = near;
+      entryAxis = axis;
+    }
+    leave = std::min(leave, far);
+    if (enter > leave) return false;
+  }
+  if (entryAxis < 0) return false;  // started inside: free to leave
+  local[entryAxis] = d[entryAxis] > 0 ? Real(-1) : Real(1);
+  exit = mCenter + mRotation * (a + enter * d + clearance * local);
+  normal = mRotation * local;
+  return true;
+}
+
 TriangleMesh BoxBoundary::surfaceMesh() const {
   TriangleMesh mesh;
   for (int axis = 0; axis < 3; ++axis)

@@ -37,6 +37,10 @@ public:
   TriangleMesh surfaceMesh() const override;
   void bounds(Vec3r& lo, Vec3r& hi) const override;
 
+  /// Exact for both kinds: a solid block is entered where the move first meets it
+  /// (slab test: a move through a thin slope counts); a tank where the move leaves
+  /// its interior (clamped back a clearance inside each wall it crossed).
+  bool penetrated(const Vec3r& from, const Vec3r& to, Real clearance, Vec3r& exit, Vec3r& normal) const override;
   bool isTank() const { return mTank; }
   const Vec3r& center() const { return mCenter; }
   const Vec3r& halfExtents() const { return mHalf; }

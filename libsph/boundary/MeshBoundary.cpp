@@ -222,6 +222,43 @@ struct MeshBoundary::Impl {
   }
 
   /// Closest point within maxDistance; returns the triangle index or -1.
+  /// The first triangle the segment p0 -> p1 enters through (from its outer side:
+  /// direction . normal < 0), at parameter t in [0, 1] (Moeller & Trumbore 1997); -1 if none.
+  long firstEntry(const Vec3d& p0, const Vec3d& p1, double& t) const {
+    long l[3], u[3];
+    for (int k = 0; k < 3; ++k) {
+      l[k] = std::max(0L, long(std::floor((std::min(p0[k], p1[k]) - origin[k]) / cellSize)));
+      u[k] = std::min(dims[k] - 1, long(std::floor((std::max(p0[k], p1[k]) - origin[k]) / cellSize)));
+      if (l[k] > u[k]) return -1;
+    }
+    const Vec3d d = p1 - p0;
+    long best = -1;
+    t = 2;
+    for (long z = l[2]; z <= u[2]; ++z)
+      for (long y = l[1]; y <= u[1]; ++y)
+        for (long x = l[0]; x <= u[0]; ++x) {
+          const long cell = (z * dims[1] + y) * dims[0] + x;
+          for (std::uint32_t s = cellStart[cell]; s < cellStart[cell + 1]; ++s) {
+            const std::uint32_t k = cellTriangles[s];
+            if (d.dot(faceNormal[k]) >= 0) continue;  // leaving or parallel
+            const Vec3d e1 = b[k] - a[k], e2 = c[k] - a[k], h = d.cross(e2);
+            const double det = e1.dot(h);
+            if (det == 0) continue;
+            const Vec3d w = p0 - a[k];
+            const double alpha = w.dot(h) / det;
+            if (alpha < 0 || alpha > 1) continue;
+            const Vec3d q = w.cross(e1);
+            const double beta = d.dot(q) / det;
+            if (beta < 0 || alpha + beta > 1) continue;
+            const double at = e2.dot(q) / det;
+            if (at < 0 || at > 1 || at > t || (at == t && long(k) > best)) continue;
+            t = at;
+            best = long(k);
+          }
+        }
+    return best;
+  }
+
   long closest(const Vec3d& p, double maxDistance, Vec3d& point) const {
     long l[3], u[3];
     for (int k = 0; k < 3; ++k) {
@@ -363,6 +400,17 @@ bool MeshBoundary::isInside(const Vec3r& x) const {
 bool MeshBoundary::penetrated(const Vec3r& from, const Vec3r& to, Real clearance, Vec3r& exit,
                               Vec3r& normal) const {
   const Impl& m = *mImpl;
+  for (int k = 0; k < 3; ++k)
+    if (std::max(from[k], to[k]) < m.lo[k] || std::min(from[k], to[k]) > m.hi[k]) return false;
+  // The move entered through a triangle (also through a thin part and out again).
+  double entry = 0;
+  if (const long k = m.firstEntry(from.cast<double>(), to.cast<double>(), entry); k >= 0 && !isInside(from)) {
+    normal = m.faceNormal[k].cast<Real>();
+    exit = (from.cast<double>() + entry * (to - from).cast<double>()).cast<Real>() + clearance * normal;
+    if (isInside(exit)) exit = from;  // a crease: the face normal points into the solid's other side
+    return true;
+  }
+  // Ended inside without a crossing found (through an edge or a vertex).
   for (int k = 0; k < 3; ++k)
     if (to[k] < m.lo[k] || to[k] > m.hi[k]) return false;
   Vec3d point;

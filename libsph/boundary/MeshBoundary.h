@@ -68,10 +68,12 @@ public:
   void mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryIndex,
                   std::vector<MirrorMap>& maps) const override;
   bool isInside(const Vec3r& x) const override;
-  /// The winding number only for a `to` within |to - from| of the surface (a point
-  /// that got inside from outside crossed the surface on the way; the rest of the
-  /// boundary layer costs one closest-triangle query). Exit: `clearance` off the
-  /// closest surface point along its face normal (`from` if that is inside too).
+  /// The first triangle the move enters through (segment-triangle tests over the
+  /// grid cells the move spans; a move through a thin part counts): exit `clearance`
+  /// off the entry point along its face normal (`from` if that is inside too). A
+  /// move that ended inside without a crossing found (an edge or a vertex hit) is
+  /// found by the winding number, taken only for a `to` within |to - from| of the
+  /// surface; exit `clearance` off the closest surface point.
   bool penetrated(const Vec3r& from, const Vec3r& to, Real clearance, Vec3r& exit, Vec3r& normal) const override;
   TriangleMesh surfaceMesh() const override;
   void bounds(Vec3r& lo, Vec3r& hi) const override;

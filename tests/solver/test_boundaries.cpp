@@ -328,31 +328,56 @@ TEST(MeshBoundary, CubeInsideTestMirrorsAndTransform) {
   std::filesystem::remove(path);
 }
 
-// The guard after each step (Simulation::keepOutOfSolids): a move that ends inside is
-// reported with an exit point outside, clearance off the face it came through, and the
-// face's outward normal; moves that end outside, or start inside, are not.
+// The guard after each step (Simulation::keepOutOfSolids): a move that enters the
+// solid (ends inside, or passes through) is reported with an exit point outside,
+// clearance off where it entered, and that face's outward normal; moves that stay
+// outside, or start inside, are not.
 TEST(MeshBoundary, PenetratedGivesAnExitOffTheFaceCrossed) {
   const auto path = writeTemp("cube.obj", kCubeObj);
   auto cube = MeshBoundary::load(path, MeshObstacleOptions());  // [0, 1]^3
   const Real clearance = 0.01f;
   Vec3r exit, normal;
+  // Into the top face z = 1 at y = 0.48 (0.4 of the way).
   ASSERT_TRUE(cube->penetrated(Vec3r(0.5f, 0.5f, 1.02f), Vec3r(0.5f, 0.45f, 0.97f), clearance, exit, normal));
   EXPECT_TRUE(normal.isApprox(Vec3r(0, 0, 1), 1e-6f)) << normal.transpose();
-  EXPECT_TRUE(exit.isApprox(Vec3r(0.5f, 0.45f, 1.01f), 1e-5f)) << exit.transpose();
+  EXPECT_TRUE(exit.isApprox(Vec3r(0.5f, 0.48f, 1.01f), 1e-5f)) << exit.transpose();
   EXPECT_FALSE(cube->isInside(exit));
   // Through the side x = 0, from farther than the step's length: still found.
   ASSERT_TRUE(cube->penetrated(Vec3r(-0.3f, 0.5f, 0.5f), Vec3r(0.1f, 0.5f, 0.5f), clearance, exit, normal));
   EXPECT_TRUE(normal.isApprox(Vec3r(-1, 0, 0), 1e-6f)) << normal.transpose();
-  EXPECT_NEAR(exit.x(), -clearance, 1e-6f);
+  EXPECT_TRUE(exit.isApprox(Vec3r(-clearance, 0.5f, 0.5f), 1e-5f)) << exit.transpose();
+  // Through the whole cube in one move (a thin part): entered through the top.
+  ASSERT_TRUE(cube->penetrated(Vec3r(0.3f, 0.3f, 1.2f), Vec3r(0.3f, 0.3f, -0.2f), clearance, exit, normal));
+  EXPECT_TRUE(exit.isApprox(Vec3r(0.3f, 0.3f, 1.01f), 1e-5f)) << exit.transpose();
   EXPECT_FALSE(cube->penetrated(Vec3r(0.5f, 0.5f, 1.05f), Vec3r(0.5f, 0.5f, 1.001f), clearance, exit, normal));
   EXPECT_FALSE(cube->penetrated(Vec3r(0.5f, 0.5f, 0.5f), Vec3r(0.5f, 0.5f, 0.6f), clearance, exit, normal));
-  // A tank (default rule): back to where the move started, the normal against the move.
-  auto tank = BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(1, 1, 1));
-  ASSERT_TRUE(tank->penetrated(Vec3r(0.5f, 0.5f, 0.01f), Vec3r(0.5f, 0.5f, -0.01f), clearance, exit, normal));
-  EXPECT_TRUE(exit.isApprox(Vec3r(0.5f, 0.5f, 0.01f)));
-  EXPECT_TRUE(normal.isApprox(Vec3r(0, 0, 1), 1e-5f));
-  EXPECT_FALSE(tank->penetrated(Vec3r(0.5f, 0.5f, 0.5f), Vec3r(0.5f, 0.5f, 0.01f), clearance, exit, normal));
+  EXPECT_FALSE(cube->penetrated(Vec3r(0.5f, 0.5f, 0.5f), Vec3r(0.5f, 0.5f, 1.6f), clearance, exit, normal));
   std::filesystem::remove(path);
+}
+
+TEST(BoxBoundary, PenetratedFindsMovesThroughASlabAndOutOfATank) {
+  const Real clearance = 0.01f;
+  Vec3r exit, normal;
+  // A 1 cm slab at z = 0.3 (a thin slope), rotated 90 degrees about z: passed through from above.
+  Eigen::Matrix<Real, 3, 3> rotation;
+  rotation << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  auto slab = BoxBoundary::solid(Vec3r(0.2f, 0.2f, 0.3f), Vec3r(0.15f, 0.1f, 0.005f), rotation);
+  ASSERT_TRUE(slab->penetrated(Vec3r(0.2f, 0.25f, 0.31f), Vec3r(0.2f, 0.25f, 0.29f), clearance, exit, normal));
+  EXPECT_TRUE(normal.isApprox(Vec3r(0, 0, 1), 1e-5f)) << normal.transpose();
+  EXPECT_TRUE(exit.isApprox(Vec3r(0.2f, 0.25f, 0.315f), 1e-5f)) << exit.transpose();
+  // Into its side face (local x = 0.15 is world y = 0.35 after the rotation).
+  ASSERT_TRUE(slab->penetrated(Vec3r(0.2f, 0.37f, 0.3f), Vec3r(0.2f, 0.33f, 0.3f), clearance, exit, normal));
+  EXPECT_TRUE(normal.isApprox(Vec3r(0, 1, 0), 1e-5f)) << normal.transpose();
+  EXPECT_TRUE(exit.isApprox(Vec3r(0.2f, 0.36f, 0.3f), 1e-5f)) << exit.transpose();
+  EXPECT_FALSE(slab->penetrated(Vec3r(0.2f, 0.25f, 0.32f), Vec3r(0.2f, 0.25f, 0.306f), clearance, exit, normal));
+  EXPECT_FALSE(slab->penetrated(Vec3r(0.2f, 0.2f, 0.3f), Vec3r(0.2f, 0.2f, 0.5f), clearance, exit, normal));
+  // A tank: out through the floor and a side wall at once, clamped a clearance inside both.
+  auto tank = BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(1, 1, 1));
+  ASSERT_TRUE(tank->penetrated(Vec3r(0.02f, 0.5f, 0.01f), Vec3r(-0.01f, 0.5f, -0.01f), clearance, exit, normal));
+  EXPECT_TRUE(exit.isApprox(Vec3r(clearance, 0.5f, clearance), 1e-5f)) << exit.transpose();
+  EXPECT_TRUE(normal.isApprox(Vec3r(1, 0, 1).normalized(), 1e-5f)) << normal.transpose();
+  EXPECT_FALSE(tank->penetrated(Vec3r(0.5f, 0.5f, 0.5f), Vec3r(0.5f, 0.5f, 0.01f), clearance, exit, normal));
+  EXPECT_FALSE(tank->penetrated(Vec3r(0.5f, 0.5f, 0.9f), Vec3r(0.5f, 0.5f, 1.5f), clearance, exit, normal));  // open top
 }
 
 TEST(MeshBoundary, OpenBoxIsClosedByHoleFilling) {
