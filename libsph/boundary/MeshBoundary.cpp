@@ -221,7 +221,6 @@ struct MeshBoundary::Impl {
     for (std::size_t k = 0; k < cells; ++k) std::copy(lists[k].begin(), lists[k].end(), cellTriangles.begin() + cellStart[k]);
   }
 
-  /// Closest point within maxDistance; returns the triangle index or -1.
   /// The first triangle the segment p0 -> p1 enters through (from its outer side:
   /// direction . normal < 0), at parameter t in [0, 1] (Moeller & Trumbore 1997); -1 if none.
   long firstEntry(const Vec3d& p0, const Vec3d& p1, double& t) const {
@@ -259,6 +258,7 @@ struct MeshBoundary::Impl {
     return best;
   }
 
+  /// Closest point within maxDistance; returns the triangle index or -1.
   long closest(const Vec3d& p, double maxDistance, Vec3d& point) const {
     long l[3], u[3];
     for (int k = 0; k < 3; ++k) {

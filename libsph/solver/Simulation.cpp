@@ -447,9 +447,10 @@ void Simulation::removeOutside() {
 
 /// The boundary models keep particles out of solids only as well as the step resolves
 /// the approach (DFSPH: a particle gliding along a mesh crease, 1 in a 10 m/s jet at
-/// 5 mm, measured). A particle of the step's boundary layer that ended inside a solid
-/// goes back out (a quarter spacing off the surface, or where the step started) and
-/// loses the part of its velocity into the solid: only energy is taken, and no
+/// 5 mm, measured). A particle of the step's boundary layer whose move entered a solid
+/// (ended inside it, or passed through a thin part; Boundary::penetrated) goes back
+/// out (a quarter spacing off the face where it entered, or where the step started)
+/// and loses the part of its velocity into the solid: only energy is taken, and no
 /// particle stays in a solid.
 void Simulation::keepOutOfSolids() {
   const std::vector<std::uint32_t>& layer = mBoundaryParticles.layer();

@@ -86,7 +86,7 @@ public:
   /// Particles removed because they left the domain, since the start.
   std::uint64_t removedCount() const { return mRemovedCount; }
   /// Times a step had carried a particle of the boundary layer into a solid and the
-  /// guard put it back (keepOutOfSolids), since the start.
+  /// guard put it back (keepOutOfSolids), in this run (not kept in checkpoints).
   std::uint64_t keptOutCount() const { return mKeptOutCount; }
   /// The derived constants (valid after the first step or nextTimeStep()).
   const DerivedConstants& constants() const { return mConstants; }
