@@ -148,16 +148,30 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
     simulation.addBoundary(std::move(mesh));
   }
   // A block that reaches into a solid (an obstacle, or past the tank's walls) fills only
-  // the space around it: particles inside a solid would stay trapped there.
+  // the space around it: particles inside a solid would stay trapped there. Blocks fill
+  // their union once: a block leaves out its lattice points within half a spacing of an
+  // earlier block's box, which that block fills (its lattice lies at least half a
+  // spacing inside its faces, so no two particles start closer than a spacing there).
+  const double margin = 0.5 * scene.fluid.spacing;
   for (std::size_t k = 0; k < scene.fluid.blocks.size(); ++k) {
     const FluidBlock& block = scene.fluid.blocks[k];
     const Vec3r velocity = toVec(block.velocity);
     const std::vector<Vec3r> positions = blockPositions(block, scene.fluid.spacing);
-    std::size_t insideSolids = 0;
+    std::size_t insideSolids = 0, overlapping = 0;
     for (const Vec3r& p : positions) {
+      bool earlier = false;
+      for (std::size_t j = 0; j < k && !earlier; ++j) {
+        const Box& box = scene.fluid.blocks[j].box;
+        earlier = true;
+        for (int axis = 0; axis < 3; ++axis)
+          earlier = earlier && double(p[axis]) >= box.min[axis] - margin && double(p[axis]) <= box.max[axis] + margin;
+      }
       bool inside = false;
-      for (std::size_t b = 0; b < simulation.boundaryCount() && !inside; ++b) inside = simulation.boundary(b).isInside(p);
-      if (inside)
+      for (std::size_t b = 0; b < simulation.boundaryCount() && !inside && !earlier; ++b)
+        inside = simulation.boundary(b).isInside(p);
+      if (earlier)
+        ++overlapping;
+      else if (inside)
         ++insideSolids;
       else
         simulation.addParticle(p, velocity);
@@ -165,6 +179,9 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
     if (insideSolids > 0 && log)
       *log << "fluid block " << k + 1 << ": " << insideSolids << " of its " << positions.size()
            << " particles lie inside solids and are left out\n";
+    if (overlapping > 0 && log)
+      *log << "fluid block " << k + 1 << ": " << overlapping << " of its " << positions.size()
+           << " particles overlap earlier blocks, which fill that space\n";
   }
   if (const int layers = deepestFluidLayers(scene); log && scene.solver.type == "dfsph" && layers > kDfsphStillWaterLayers)
     *log << "warning: a fluid block stacks " << layers << " particle layers; beyond about " << kDfsphStillWaterLayers

@@ -24,7 +24,8 @@ SimulationSettings simulationSettings(const Scene& scene);
 
 /// Adds the scene's boundaries (in scene order: tank, planes, slopes,
 /// obstacles) and initial fluid blocks to `simulation`, without the block
-/// particles that lie inside a solid (logged). Mesh loading and
+/// particles that lie inside a solid or within half a spacing of an earlier
+/// block (blocks fill their union once; both logged). Mesh loading and
 /// simplification are logged to `log` if not null, and so is a warning when a
 /// dfsph scene starts with water deeper than DFSPH holds still
 /// (kDfsphStillWaterLayers) or asks for a CFL factor above the one it holds (kDfsphMaxCfl).
