@@ -95,7 +95,7 @@ constexpr int kDfsphStillWaterLayers = 80;
 /// jet into the 900-triangle bunny at 1 cm spacing (stress suite), where the velocity
 /// CFL binds: 0.5 and below keep every particle out of the bunny (also at 15 and
 /// 20 m/s); 0.6 lets 18 particles into it, 0.75 41, 1.0 45 (and the kinetic energy
-/// rises to 1.6 x what the jet brings), 2.0 166 (5 x): the mirror layer (kappa h = 2
+/// rises to 1.65 x the stress bound), 2.0 166 (5.1 x): the mirror layer (kappa h = 2
 /// spacings) and the wall limiter catch only particles that travel about a spacing a step.
 constexpr Real kDfsphMaxCfl = Real(0.5);
 
