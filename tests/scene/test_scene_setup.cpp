@@ -1,7 +1,8 @@
 // Scene set-up (SceneSetup.h): the depth of the starting water in particle
 // layers, and the warning for dfsph scenes deeper than DFSPH holds still
 // (kDfsphStillWaterLayers; README, Solvers and their limits); the warning for a
-// dfsph CFL factor above its cap; block particles inside solids left out.
+// dfsph CFL factor above its cap; block particles inside solids, or within half a
+// spacing of an earlier block, left out.
 #include "libsph/scene/FluidSources.h"
 #include "libsph/scene/SceneSetup.h"
 #include "libsph/solver/TimeStepDFSPH.h"
