@@ -70,7 +70,9 @@
 /// speed of sound), and dt <= 0.06 sqrt(h / a_max) with a_max the largest
 /// non-pressure acceleration. A step the Simulation shortened to land on a frame or
 /// probe time (dt == maxTimeStep and less than half the last regular step) removes
-/// only its share of the density error already there and keeps the warm starts.
+/// only its share of the density error already there, keeps the warm starts, and
+/// reports the last regular step's pressure and forces (its own stiffness, half the
+/// warm start and little more, is not the water's pressure).
 /// Robustness: a step removes at most 2 % of a compression already there (so
 /// overlapping particles part over several steps); alpha_i is 0 for a particle with nearly no neighbours (not 1/0);
 /// the divergence solve skips particles with fewer than 20 neighbours (free

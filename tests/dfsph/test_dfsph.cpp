@@ -5,6 +5,7 @@
 #include "libsph/Kernels.h"
 #include "libsph/boundary/BoxBoundary.h"
 #include "libsph/boundary/WallShearStress.h"
+#include "libsph/probes/Probes.h"
 #include "libsph/solver/Simulation.h"
 #include "libsph/solver/TimeStepDFSPH.h"
 
@@ -162,6 +163,35 @@ TEST(DFSPH, CflFactorAboveTheCapGivesTheCappedStep) {
   EXPECT_NEAR(firstStep("dfsph", kDfsphMaxCfl), double(kDfsphMaxCfl) * h / speed, 1e-9);
   EXPECT_NEAR(firstStep("dfsph", Real(2)), double(kDfsphMaxCfl) * h / speed, 1e-9);
   EXPECT_NEAR(firstStep("wcsph", Real(2)) / firstStep("wcsph", Real(0.5)), 4.0, 1e-6);
+}
+
+// Frames and probes land on steps the Simulation shortens (advanceTo). Such a step
+// starts from half the last stiffness and, being short, needs little more: its own
+// stiffness read 0.58-0.92 rho g H on a resting floor. It reports the last regular
+// step's pressure, as every regular step reads it.
+TEST(DFSPH, ShortenedStepsReportTheRestingPressure) {
+  const Real spacing = Real(0.01), depth = Real(0.1);
+  Simulation sim(dfsphSettings(spacing));
+  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(0.1, 0.1, 0.2)));
+  sim.addFluidBox(Vec3r(0, 0, 0), Vec3r(0.1, 0.1, depth));
+  const Vec3r floorPoint(0.05f, 0.05f, 0);
+  const double expected = 1000.0 * 9.81 * double(depth);
+  sim.advanceTo(0.2);
+  std::vector<double> landed;
+  for (int k = 1; k <= 30; ++k) {
+    const double regularStep = sim.nextTimeStep();
+    sim.advanceTo(sim.time() + 3.2 * regularStep);  // three regular steps and one of a fifth
+    if (sim.lastTimeStep() < 0.5 * regularStep)  // landed on a shortened step
+      landed.push_back(pressureAt(sim.particles(), floorPoint, sim.supportRadius(), sim.settings().solver.gravity));
+  }
+  double regular = 0;  // the same water over the next 30 regular steps
+  for (int k = 0; k < 30; ++k) {
+    sim.step();
+    regular += pressureAt(sim.particles(), floorPoint, sim.supportRadius(), sim.settings().solver.gravity) / 30;
+  }
+  ASSERT_GE(landed.size(), 10u);
+  EXPECT_NEAR(regular / expected, 1.0, 0.05);
+  for (double p : landed) EXPECT_NEAR(p / regular, 1.0, 0.05) << "regular steps read " << regular << " Pa";
 }
 
 TEST(DFSPH, WarmStartsFollowReorderRemovalAndCheckpoints) {
