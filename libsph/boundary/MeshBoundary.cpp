@@ -221,68 +221,63 @@ struct MeshBoundary::Impl {
     for (std::size_t k = 0; k < cells; ++k) std::copy(lists[k].begin(), lists[k].end(), cellTriangles.begin() + cellStart[k]);
   }
 
-  /// The first triangle the segment p0 -> p1 enters through (from its outer side:
-  /// direction . normal < 0), at parameter t in [0, 1] (Moeller & Trumbore 1997); -1 if none.
-  long firstEntry(const Vec3d& p0, const Vec3d& p1, double& t) const {
+  /// Calls visit(t) for each triangle t listed in a grid cell the box [lo, hi] overlaps
+  /// (a triangle in several such cells once per cell).
+  template <typename F>
+  void forEachTriangleNear(const Vec3d& lo, const Vec3d& hi, F&& visit) const {
     long l[3], u[3];
     for (int k = 0; k < 3; ++k) {
-      l[k] = std::max(0L, long(std::floor((std::min(p0[k], p1[k]) - origin[k]) / cellSize)));
-      u[k] = std::min(dims[k] - 1, long(std::floor((std::max(p0[k], p1[k]) - origin[k]) / cellSize)));
-      if (l[k] > u[k]) return -1;
+      l[k] = std::max(0L, long(std::floor((lo[k] - origin[k]) / cellSize)));
+      u[k] = std::min(dims[k] - 1, long(std::floor((hi[k] - origin[k]) / cellSize)));
+      if (l[k] > u[k]) return;
     }
-    const Vec3d d = p1 - p0;
-    long best = -1;
-    t = 2;
     for (long z = l[2]; z <= u[2]; ++z)
       for (long y = l[1]; y <= u[1]; ++y)
         for (long x = l[0]; x <= u[0]; ++x) {
           const long cell = (z * dims[1] + y) * dims[0] + x;
-          for (std::uint32_t s = cellStart[cell]; s < cellStart[cell + 1]; ++s) {
-            const std::uint32_t k = cellTriangles[s];
-            if (d.dot(faceNormal[k]) >= 0) continue;  // leaving or parallel
-            const Vec3d e1 = b[k] - a[k], e2 = c[k] - a[k], h = d.cross(e2);
-            const double det = e1.dot(h);
-            if (det == 0) continue;
-            const Vec3d w = p0 - a[k];
-            const double alpha = w.dot(h) / det;
-            if (alpha < 0 || alpha > 1) continue;
-            const Vec3d q = w.cross(e1);
-            const double beta = d.dot(q) / det;
-            if (beta < 0 || alpha + beta > 1) continue;
-            const double at = e2.dot(q) / det;
-            if (at < 0 || at > 1 || at > t || (at == t && long(k) > best)) continue;
-            t = at;
-            best = long(k);
-          }
+          for (std::uint32_t s = cellStart[cell]; s < cellStart[cell + 1]; ++s) visit(cellTriangles[s]);
         }
+  }
+
+  /// The first triangle the segment p0 -> p1 enters through (from its outer side:
+  /// direction . normal < 0), at parameter t in [0, 1] (Moeller & Trumbore 1997); -1 if none.
+  long firstEntry(const Vec3d& p0, const Vec3d& p1, double& t) const {
+    const Vec3d d = p1 - p0;
+    long best = -1;
+    t = 2;
+    forEachTriangleNear(p0.cwiseMin(p1), p0.cwiseMax(p1), [&](std::uint32_t k) {
+      if (d.dot(faceNormal[k]) >= 0) return;  // leaving or parallel
+      const Vec3d e1 = b[k] - a[k], e2 = c[k] - a[k], h = d.cross(e2);
+      const double det = e1.dot(h);
+      if (det == 0) return;
+      const Vec3d w = p0 - a[k];
+      const double alpha = w.dot(h) / det;
+      if (alpha < 0 || alpha > 1) return;
+      const Vec3d q = w.cross(e1);
+      const double beta = d.dot(q) / det;
+      if (beta < 0 || alpha + beta > 1) return;
+      const double at = e2.dot(q) / det;
+      if (at < 0 || at > 1 || at > t || (at == t && long(k) > best)) return;
+      t = at;
+      best = long(k);
+    });
     return best;
   }
 
   /// Closest point within maxDistance; returns the triangle index or -1.
   long closest(const Vec3d& p, double maxDistance, Vec3d& point) const {
-    long l[3], u[3];
-    for (int k = 0; k < 3; ++k) {
-      l[k] = std::max(0L, long(std::floor((p[k] - maxDistance - origin[k]) / cellSize)));
-      u[k] = std::min(dims[k] - 1, long(std::floor((p[k] + maxDistance - origin[k]) / cellSize)));
-      if (l[k] > u[k]) return -1;
-    }
     double best = maxDistance * maxDistance;
     long bestTriangle = -1;
-    for (long z = l[2]; z <= u[2]; ++z)
-      for (long y = l[1]; y <= u[1]; ++y)
-        for (long x = l[0]; x <= u[0]; ++x) {
-          const long cell = (z * dims[1] + y) * dims[0] + x;
-          for (std::uint32_t s = cellStart[cell]; s < cellStart[cell + 1]; ++s) {
-            const std::uint32_t t = cellTriangles[s];
-            const Vec3d q = closestOnTriangle(p, a[t], b[t], c[t]);
-            const double d2 = (q - p).squaredNorm();
-            if (d2 < best || (d2 == best && bestTriangle >= 0 && long(t) < bestTriangle)) {
-              best = d2;
-              bestTriangle = long(t);
-              point = q;
-            }
-          }
-        }
+    const Vec3d reach = Vec3d::Constant(maxDistance);
+    forEachTriangleNear(p - reach, p + reach, [&](std::uint32_t t) {
+      const Vec3d q = closestOnTriangle(p, a[t], b[t], c[t]);
+      const double d2 = (q - p).squaredNorm();
+      if (d2 < best || (d2 == best && bestTriangle >= 0 && long(t) < bestTriangle)) {
+        best = d2;
+        bestTriangle = long(t);
+        point = q;
+      }
+    });
     return bestTriangle;
   }
 };
