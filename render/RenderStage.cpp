@@ -425,11 +425,12 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
   const std::string signature = settingsSignature(options, axis);
   const PngText text = {{"Software", "Cascade render"}, {"cascade-render", signature}};
 
-  auto frameScene = [&](const TriangleMesh* fluid, const ParticleSpheres* spheres, const Camera& view) {
+  auto frameScene = [&](const TriangleMesh* fluid, const ParticleSpheres* spheres, const Camera& view,
+                        const TriangleMesh* frameSolids = nullptr) {
     FrameScene frameScene;
     frameScene.fluid = fluid;
     frameScene.particles = spheres;
-    frameScene.solids = hasSolids ? &solids : nullptr;
+    frameScene.solids = frameSolids ? frameSolids : hasSolids ? &solids : nullptr;
     frameScene.camera = view;
     frameScene.lights = lights;
     frameScene.stage = stage;
@@ -448,8 +449,11 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
   for (std::size_t index = 0; index < frames.size(); ++index) {
     const FrameInput& input = frames[index];
     const fs::path target = layout.render(input.frame);
+    // Moving solids: this frame's solids (geometry/solids.NNNN.obj) are an input too.
+    const fs::path frameSolids = layout.solids(input.frame);
+    const auto solidsTime = fs::is_regular_file(frameSolids, error) ? modified(frameSolids) : fs::file_time_type::min();
     if (!options.force && fs::is_regular_file(input.path, error) && fs::is_regular_file(target, error) &&
-        modified(target) >= std::max(modified(input.path), inputsTime)) {
+        modified(target) >= std::max({modified(input.path), inputsTime, solidsTime})) {
       const PngText stored = readPngText(target);
       const auto found = stored.find("cascade-render");
       if (found != stored.end() && found->second == signature) {
@@ -471,6 +475,13 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
   struct Loaded {
     std::optional<TriangleMesh> fluid;
     std::optional<ParticleSpheres> spheres;
+    std::optional<TriangleMesh> solids;  ///< the frame's own, when solids move
+  };
+  auto loadFrameSolids = [&](int frame) -> std::optional<TriangleMesh> {
+    std::error_code missing;
+    const fs::path path = layout.solids(frame);
+    if (!fs::is_regular_file(path, missing)) return std::nullopt;
+    return readObj(path);
   };
   auto load = [&](std::size_t index) {
     const FrameInput& input = frames[index];
@@ -480,6 +491,7 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
     Loaded loaded;
     if (options.particles) loaded.spheres = loadParticles(input.path, speedScale);
     else loaded.fluid = loadMesh(input.path);
+    loaded.solids = loadFrameSolids(input.frame);
     return loaded;
   };
   std::future<Loaded> next;
@@ -494,7 +506,8 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
       if (k + 1 < todo.size()) next = std::async(std::launch::async, load, todo[k + 1]);
       const Loaded loaded = current.get();
       const Image image = renderer().render(frameScene(loaded.fluid ? &*loaded.fluid : nullptr,
-                                                     loaded.spheres ? &*loaded.spheres : nullptr, camera));
+                                                     loaded.spheres ? &*loaded.spheres : nullptr, camera,
+                                                     loaded.solids ? &*loaded.solids : nullptr));
       writePng(target, image, false, text);
       report.written.push_back(target);
       report.rendered.push_back(input.frame);
@@ -537,9 +550,11 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
         std::optional<ParticleSpheres> spheres;
         if (options.particles) spheres = loadParticles(input.path, speedScale);
         else fluid = loadMesh(input.path);
+        const std::optional<TriangleMesh> frameSolids = loadFrameSolids(input.frame);
         for (int view = 0; view < options.turntableViews; ++view) {
           const Camera orbit = camera.orbited(float(2.0 * 3.14159265358979 * view / options.turntableViews));
-          const Image image = renderer().render(frameScene(fluid ? &*fluid : nullptr, spheres ? &*spheres : nullptr, orbit));
+          const Image image = renderer().render(frameScene(fluid ? &*fluid : nullptr, spheres ? &*spheres : nullptr, orbit,
+                                                           frameSolids ? &*frameSolids : nullptr));
           const fs::path target = layout.renderDir() / ("turntable." + OutputLayout::pad(view + 1) + ".png");
           writePng(target, image, false, text);
           report.written.push_back(target);

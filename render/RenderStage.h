@@ -9,7 +9,8 @@
 ///    radius spacing/2 coloured by speed (white at sqrt(2 g H), H the stage height);
 ///  - OUT/geometry/solids.obj, the solids in world coordinates, one group per
 ///    solid (a group whose name contains "tank" is drawn cut away on the
-///    camera's side), if present;
+///    camera's side), if present; where solids move, OUT/geometry/solids.NNNN.obj
+///    holds each frame's and is drawn in its place;
 ///  - OUT/scene.json "camera" and "lights" (and the tank box for framing), if
 ///    present; otherwise an automatic framing camera and default lights.
 /// Writes OUT/render/frame.NNNN.png (sRGB, 8 bit), optionally

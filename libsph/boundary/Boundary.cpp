@@ -21,6 +21,7 @@ MirrorMap MirrorMap::after(const MirrorMap& first) const {
   map.offset = linear * first.offset + offset;
   map.boundary = boundary;
   map.symmetry = symmetry && first.symmetry;
+  map.wallVelocity = wallVelocity.isZero() ? first.wallVelocity : wallVelocity;
   return map;
 }
 

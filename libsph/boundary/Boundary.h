@@ -14,6 +14,7 @@
 #pragma once
 
 #include "libsph/Types.h"
+#include "libsph/bodies/RigidPose.h"
 #include "libsph/boundary/BoundarySampling.h"
 #include "libsph/io/TriangleMesh.h"
 
@@ -35,7 +36,27 @@ struct MirrorMap {
   /// no wall shear, whatever BoundarySettings::slip says. A product of maps is a
   /// symmetry only if all its factors are.
   bool symmetry = false;
+  /// Velocity of the wall where the map's plane touches it (zero for a solid at
+  /// rest). A moving wall's images carry it: free slip v' = w + L (v - w), no
+  /// slip v' = 2 w - v, so viscosity, no-slip and DFSPH's divergence see the wall
+  /// move (its source term).
+  Vec3r wallVelocity = Vec3r::Zero();
+  /// Only sources in front of the plane (on the particle's side) have images: the map
+  /// of a solid with convex edges (a mesh), where fluid beside the solid lies behind
+  /// the tangent plane and its images would land in the fluid (ghosts on top of real
+  /// water near the edge: a cube held in water lost 4-7 % of its buoyancy to them).
+  /// A single reflection only.
+  bool frontOnly = false;
 
+  /// True if `source` has no image under a frontOnly map seen by the particle at x.
+  bool behind(const Vec3r& x, const Vec3r& source) const {
+    return frontOnly && (source - apply(source)).dot(x - apply(x)) < 0;
+  }
+
+  /// The image's velocity of a source moving at v (free slip or no slip).
+  Vec3r imageVelocity(const Vec3r& v, bool noSlip) const {
+    return noSlip && !symmetry ? Vec3r(Real(2) * wallVelocity - v) : Vec3r(wallVelocity + linear * (v - wallVelocity));
+  }
   Vec3r apply(const Vec3r& x) const { return linear * x + offset; }
   /// Reflection across the plane through `point` with unit `normal`.
   static MirrorMap reflection(const Vec3r& point, const Vec3r& normal, std::uint32_t boundary);
@@ -102,6 +123,21 @@ public:
     normal = back.norm() > 0 ? Vec3r(back.normalized()) : Vec3r::Zero();
     return true;
   }
+
+  // --- motion (a solid at rest answers with the defaults) ---
+  /// True if the solid moves (MovingBoundary): its type I samples are kept in its
+  /// reference frame and placed by pose() each step.
+  virtual bool moves() const { return false; }
+  /// Pose of the reference geometry this step (identity for a solid at rest).
+  virtual RigidPose pose() const { return RigidPose(); }
+  /// Velocity of the solid at world point x this step.
+  virtual Vec3r velocityAt(const Vec3r& x) const {
+    (void)x;
+    return Vec3r::Zero();
+  }
+  /// Type I samples in the reference frame (a moving solid's; the static ones are
+  /// sampleSurfaceLattices()'s, already in world coordinates).
+  virtual void sampleReference(Real maxGap, std::vector<Vec3r>& samples) const { sampleSurface(maxGap, samples); }
 
   /// The solid's surface as triangles in world coordinates (one group, named name()).
   virtual TriangleMesh surfaceMesh() const = 0;

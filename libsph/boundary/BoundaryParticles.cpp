@@ -126,6 +126,7 @@ void BoundaryParticles::sample(const std::vector<BoundaryPtr>& boundaries, Real 
   std::vector<std::uint32_t> pointOwners;
   std::vector<SampleLattice> lattices;
   for (std::size_t b = 0; b < boundaries.size(); ++b) {
+    if (boundaries[b]->moves()) continue;  // below, in their own frames
     lattices.clear();
     boundaries[b]->sampleSurfaceLattices(maxGap, lattices, points);
     pointOwners.resize(points.size(), static_cast<std::uint32_t>(b));
@@ -146,6 +147,43 @@ void BoundaryParticles::sample(const std::vector<BoundaryPtr>& boundaries, Real 
   if (mSamples.size() > base) {
     mGrid = std::make_unique<Grid>();
     mGrid->build(mSamples, mOwners, base, sampleRadius);
+  }
+  // Moving solids last: sampled once in their reference frames, each with a grid
+  // over its reference samples (queries are turned into the solid's frame).
+  mMoving.clear();
+  mMovingBegin = static_cast<std::uint32_t>(mSamples.size());
+  for (std::size_t b = 0; b < boundaries.size(); ++b) {
+    if (!boundaries[b]->moves()) continue;
+    MovingSet set;
+    set.boundary = static_cast<std::uint32_t>(b);
+    set.first = static_cast<std::uint32_t>(mSamples.size());
+    boundaries[b]->sampleReference(maxGap, set.reference);
+    if (set.reference.empty()) continue;
+    std::vector<std::uint32_t> owners(set.reference.size(), set.boundary);
+    set.grid = std::make_shared<Grid>();
+    set.grid->build(set.reference, owners, 0, sampleRadius);
+    mSamples.insert(mSamples.end(), set.reference.begin(), set.reference.end());
+    mOwners.insert(mOwners.end(), owners.begin(), owners.end());
+    mMoving.push_back(std::move(set));
+  }
+  mMovingVelocity.assign(mSamples.size() - mMovingBegin, Vec3r::Zero());
+  placeMovingSamples(boundaries);
+}
+
+void BoundaryParticles::placeMovingSamples(const std::vector<BoundaryPtr>& boundaries) {
+  for (MovingSet& set : mMoving) {
+    const Boundary& solid = *boundaries[set.boundary];
+    set.pose = solid.pose();
+    const Eigen::Matrix<Real, 3, 3> rotation = set.pose.rotation.cast<Real>();
+    const Vec3r translation = set.pose.translation.cast<Real>();
+    const std::size_t count = set.reference.size();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 4096), [&](const auto& range) {
+      for (std::size_t k = range.begin(); k != range.end(); ++k) {
+        const Vec3r x = rotation * set.reference[k] + translation;
+        mSamples[set.first + k] = x;
+        mMovingVelocity[set.first - mMovingBegin + k] = solid.velocityAt(x);
+      }
+    });
   }
 }
 
@@ -186,6 +224,11 @@ void BoundaryParticles::forEachSampleWithin(const Vec3r& x, Real radius, F&& vis
     }
   }
   if (mGrid) mGrid->forEachWithin(x, radius, mSamples, visit);
+  for (const MovingSet& set : mMoving) {
+    // x in the solid's reference frame (a rigid motion keeps distances)
+    const Vec3r local = (set.pose.rotation.transpose() * (x.cast<double>() - set.pose.translation)).cast<Real>();
+    set.grid->forEachWithin(local, radius, set.reference, [&](std::uint32_t k) { visit(set.first + k); });
+  }
 }
 
 std::vector<std::size_t> BoundaryParticles::samplesPerBoundary(std::size_t boundaryCount) const {
@@ -211,6 +254,7 @@ void BoundaryParticles::update(const Particles& particles, const std::vector<Bou
   }
   mMirrorOffsets.resize(n + 1);
   mSampleNeighbors.offsets.resize(n + 1);
+  placeMovingSamples(boundaries);
   const bool samples = withSamples && !mSamples.empty();
   const std::uint32_t boundaryCount = static_cast<std::uint32_t>(boundaries.size());
 

@@ -7,6 +7,10 @@
 ///          Samples on flat walls are kept as lattices and found from the
 ///          particle's coordinates in the wall's plane; the others (meshes)
 ///          through a cell grid;
+///          A moving solid's samples are kept in its reference frame with a
+///          grid of their own (made once, never re-sampled for a rigid motion):
+///          each step they are placed by the solid's pose (positions and
+///          velocities), and a particle's query is turned into the solid's frame;
 ///        - type II: for each fluid particle within kappa h of a boundary the
 ///          mirror maps it sees (compressed rows); its mirror particles are the
 ///          images of itself and of its fluid neighbours under those maps that
@@ -19,6 +23,7 @@
 #include "libsph/Particles.h"
 #include "libsph/boundary/Boundary.h"
 
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -35,6 +40,10 @@ public:
   /// queries of radius up to sampleRadius (WCSPH: r0 of SEED (11)).
   void sample(const std::vector<BoundaryPtr>& boundaries, Real maxGap, Real sampleRadius);
 
+  /// Places the moving solids' samples at their poses this step (positions and
+  /// velocities); update() calls it, a caller that moved solids without a step may too.
+  void placeMovingSamples(const std::vector<BoundaryPtr>& boundaries);
+
   /// Rebuilds the per-particle sample lists (samples within sampleRadius) and
   /// the mirror maps (boundaries within mirrorRange = kappa h) for this step.
   void update(const Particles& particles, const std::vector<BoundaryPtr>& boundaries,
@@ -45,6 +54,10 @@ public:
   /// samples (meshes) in the order of the sample grid's cells.
   const std::vector<Vec3r>& samplePositions() const { return mSamples; }
   const std::vector<std::uint32_t>& sampleOwners() const { return mOwners; }  ///< boundary index per sample
+  /// Velocity of sample k (zero for the samples of solids at rest).
+  Vec3r sampleVelocity(std::uint32_t k) const {
+    return k >= mMovingBegin ? mMovingVelocity[k - mMovingBegin] : Vec3r::Zero();
+  }
   /// For fluid particle i: samples within sampleRadius (indices into samplePositions()).
   const NeighborLists& sampleNeighbors() const { return mSampleNeighbors; }
 
@@ -71,7 +84,19 @@ private:
     Vec3r normal = Vec3r::UnitZ();
     std::uint32_t first = 0;  ///< index of its first point in mSamples
   };
+  struct Grid;
   std::vector<LatticeEntry> mLattices;
+  /// The samples of one moving solid: reference positions (in its grid's cell
+  /// order) at mSamples[first ..), placed each step.
+  struct MovingSet {
+    std::uint32_t boundary = 0, first = 0;
+    std::vector<Vec3r> reference;
+    std::shared_ptr<Grid> grid;
+    RigidPose pose;
+  };
+  std::vector<MovingSet> mMoving;
+  std::uint32_t mMovingBegin = std::numeric_limits<std::uint32_t>::max();
+  std::vector<Vec3r> mMovingVelocity;
   std::vector<Vec3r> mSamples;
   std::vector<std::uint32_t> mOwners;
   NeighborLists mSampleNeighbors;
@@ -84,7 +109,6 @@ private:
     std::size_t mapBase = 0, sampleBase = 0;
   };
   std::vector<ChunkOut> mChunks;
-  struct Grid;
   std::unique_ptr<Grid> mGrid;
 };
 

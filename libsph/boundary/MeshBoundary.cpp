@@ -368,6 +368,7 @@ void MeshBoundary::mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundary
   const double distance = offset.norm();
   if (distance <= 1e-12 || offset.dot(m.faceNormal[t]) <= 0) return;  // on or behind the surface
   maps.push_back(MirrorMap::reflection(point.cast<Real>(), (offset / distance).cast<Real>(), boundaryIndex));
+  maps.back().frontOnly = true;  // fluid beside a convex edge lies behind the tangent plane
 }
 
 double MeshBoundary::windingNumber(const Vec3r& x) const {

@@ -22,11 +22,15 @@ struct OutputLayout {
   std::filesystem::path surfaceDir() const { return root / "surface"; }
   std::filesystem::path meshDir() const { return root / "mesh"; }
   std::filesystem::path renderDir() const { return root / "render"; }
+  std::filesystem::path geometryDir() const { return root / "geometry"; }
+  /// The solids at rest (written once) and, when any solid moves, at each frame.
+  std::filesystem::path solids() const { return geometryDir() / "solids.obj"; }
 
   std::filesystem::path particles(int frame) const { return particlesDir() / ("particles." + pad(frame) + ".vdb"); }
   std::filesystem::path particlesPly(int frame) const { return particlesDir() / ("particles." + pad(frame) + ".ply"); }
   std::filesystem::path surface(int frame) const { return surfaceDir() / ("surface." + pad(frame) + ".vdb"); }
   std::filesystem::path mesh(int frame) const { return meshDir() / ("fluid." + pad(frame) + ".obj"); }
+  std::filesystem::path solids(int frame) const { return geometryDir() / ("solids." + pad(frame) + ".obj"); }
   std::filesystem::path render(int frame) const { return renderDir() / ("frame." + pad(frame) + ".png"); }
 
   static std::string pad(int frame);

@@ -97,22 +97,66 @@ double waterHeight(const std::vector<Vec3r>& positions, double x, double y, Real
   return top + 0.5 * double(spacing);
 }
 
-double pressureAt(const Particles& particles, const Vec3r& point, Real supportRadius, const Vec3r& gravity) {
+namespace {
+/// Calls visit(j, w_j) for the listed particles within h of the point (all if the list
+/// is null), w_j = V_j W_poly6; returns the sum of the weights.
+template <typename F>
+double forEachWeighted(const Particles& particles, const Vec3r& point, Real supportRadius, const std::uint32_t* begin,
+                       const std::uint32_t* end, F&& visit) {
   const KernelPoly6 poly6(supportRadius);
   const Real h2 = supportRadius * supportRadius;
-  double weighted = 0, weights = 0;
-  for (std::size_t j = 0; j < particles.size(); ++j) {
+  double weights = 0;
+  const std::size_t count = begin ? std::size_t(end - begin) : particles.size();
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::size_t j = begin ? begin[k] : k;
     const Real r2 = squaredDistance(point, particles.position[j]);
     if (r2 >= h2) continue;
     const double w = double(particles.mass) / double(particles.density[j]) * double(poly6.valueFromSquared(r2));
+    visit(j, w);
+    weights += w;
+  }
+  return weights;
+}
+} // namespace
+
+double pressureAt(const Particles& particles, const Vec3r& point, Real supportRadius, const Vec3r& gravity) {
+  return pressureAt(particles, point, supportRadius, gravity, nullptr, nullptr);
+}
+
+double pressureAt(const Particles& particles, const Vec3r& point, Real supportRadius, const Vec3r& gravity,
+                  const std::uint32_t* begin, const std::uint32_t* end) {
+  double weighted = 0;
+  const double weights = forEachWeighted(particles, point, supportRadius, begin, end, [&](std::size_t j, double w) {
     // p at the point = p_j + rho_j g . (point - x_j)  (hydrostatic extrapolation,
     // Adami et al. 2012 eq. 27: deeper points get more pressure)
     const double p = double(particles.pressure[j]) +
                      double(particles.density[j]) * double(gravity.dot(point - particles.position[j]));
     weighted += w * p;
-    weights += w;
-  }
+  });
   return weights > 0 ? weighted / weights : 0.0;
+}
+
+bool velocityAt(const Particles& particles, const Vec3r& point, Real supportRadius, const std::uint32_t* begin,
+                const std::uint32_t* end, Vec3d& velocity) {
+  Vec3d weighted = Vec3d::Zero();
+  const double weights = forEachWeighted(particles, point, supportRadius, begin, end, [&](std::size_t j, double w) {
+    weighted += w * particles.velocity[j].cast<double>();
+  });
+  if (!(weights > 0)) return false;
+  velocity = weighted / weights;
+  return true;
+}
+
+NeighborLists probeNeighborhoods(const Particles& particles, const std::vector<Vec3r>& points, Real radius) {
+  NeighborLists lists;
+  if (particles.empty() || points.empty()) {
+    lists.offsets.assign(points.size() + 1, 0);
+    return lists;
+  }
+  const std::unique_ptr<NeighborSearch> grid = makeNeighborSearch("grid");
+  grid->build(particles.position.data(), particles.size(), radius);
+  grid->query(points.data(), points.size(), nullptr, false, lists);
+  return lists;
 }
 
 Vec3d obstacleForce(const Simulation& simulation, const std::string& obstacle) {

@@ -2,7 +2,8 @@
 /// @brief The probes of CONTRACT.md as free functions over a particle list
 ///        (concept: size() and getPos(i, pos); Particles and ParticleFrame
 ///        model it): water height at (x, y), pressure at a boundary point,
-///        force on an obstacle, surge front along a direction.
+///        force on an obstacle, surge front along a direction, fluid velocity
+///        at a point.
 ///
 /// "Isolated droplets" are particles with fewer than `minNeighbors` other
 /// particles within 2 spacings; the height and front probes ignore them.
@@ -10,6 +11,7 @@
 /// centre (a particle stands for a cube of one spacing).
 #pragma once
 
+#include "libsph/NeighborSearch.h"
 #include "libsph/Particles.h"
 #include "libsph/Types.h"
 
@@ -42,6 +44,21 @@ double waterHeight(const std::vector<Vec3r>& positions, double x, double y, Real
 /// hydrostatically to the point (Adami et al. 2012). 0 if no particle is near.
 double pressureAt(const Particles& particles, const Vec3r& point, Real supportRadius,
                   const Vec3r& gravity);
+/// The same over the particles [begin, end) only: those within supportRadius of the
+/// point, found through a grid (ProbeNeighborhoods), so a sample costs the particles
+/// near the point, not all of them.
+double pressureAt(const Particles& particles, const Vec3r& point, Real supportRadius, const Vec3r& gravity,
+                  const std::uint32_t* begin, const std::uint32_t* end);
+
+/// Fluid velocity at a point: the Shepard-normalised SPH average of v_j with poly6
+/// weights over the listed particles (within supportRadius). False (velocity
+/// untouched) if no fluid is within supportRadius.
+bool velocityAt(const Particles& particles, const Vec3r& point, Real supportRadius, const std::uint32_t* begin,
+                const std::uint32_t* end, Vec3d& velocity);
+
+/// The particles within `radius` of each of a few probe points: one grid built over
+/// the particles (O(N)), then one query per point; list k is for points[k].
+NeighborLists probeNeighborhoods(const Particles& particles, const std::vector<Vec3r>& points, Real radius);
 
 /// Force the fluid exerts on the named boundary in the simulation's last step, N.
 /// Throws std::invalid_argument for an unknown name.

@@ -1,6 +1,7 @@
 #include "libsph/scene/Bake.h"
 
 #include "libsph/Errors.h"
+#include "libsph/bodies/MovingBoundary.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/ParticleCache.h"
 #include "libsph/io/TriangleMesh.h"
@@ -26,8 +27,11 @@ using Clock = std::chrono::steady_clock;
 std::string probeHeader(const Scene& scene) {
   std::string header = "t";
   for (const Probe& probe : scene.probes) {
-    if (probe.type == "force")
+    if (probe.type == "force" || probe.type == "velocity")
       header += "," + probe.name + "_x," + probe.name + "_y," + probe.name + "_z";
+    else if (probe.type == "body")
+      header += "," + probe.name + "_x," + probe.name + "_y," + probe.name + "_z," + probe.name + "_vx," + probe.name +
+                "_vy," + probe.name + "_vz";
     else
       header += "," + probe.name;
   }
@@ -49,12 +53,35 @@ std::string sampleProbes(const Scene& scene, const Simulation& simulation) {
   const Particles& particles = simulation.particles();
   const Real spacing = Real(scene.fluid.spacing);
   const Vec3r gravity(Real(scene.gravity[0]), Real(scene.gravity[1]), Real(scene.gravity[2]));
+  // Point probes find their particles through one grid per sample.
+  std::vector<Vec3r> points;
+  for (const Probe& probe : scene.probes)
+    if (probe.type == "pressure" || probe.type == "velocity")
+      points.emplace_back(Real(probe.at[0]), Real(probe.at[1]), Real(probe.at[2]));
+  const NeighborLists near = probeNeighborhoods(particles, points, simulation.supportRadius());
+  std::size_t point = 0;
   for (const Probe& probe : scene.probes) {
     const Vec3r at(Real(probe.at[0]), Real(probe.at[1]), Real(probe.at[2]));
     if (probe.type == "height") {
       row += "," + formatValue(waterHeight(particles.position, probe.at[0], probe.at[1], spacing));
     } else if (probe.type == "pressure") {
-      row += "," + formatValue(pressureAt(particles, at, simulation.supportRadius(), gravity));
+      row += "," + formatValue(pressureAt(particles, at, simulation.supportRadius(), gravity, near.begin(point),
+                                          near.end(point)));
+      ++point;
+    } else if (probe.type == "velocity") {
+      Vec3d velocity;
+      if (velocityAt(particles, at, simulation.supportRadius(), near.begin(point), near.end(point), velocity))
+        row += "," + formatValue(velocity.x()) + "," + formatValue(velocity.y()) + "," + formatValue(velocity.z());
+      else
+        row += ",,,";  // no fluid within a support radius
+      ++point;
+    } else if (probe.type == "body") {
+      const long index = simulation.findBoundary(probe.obstacle);
+      const MovingBoundary* solid = index >= 0 ? simulation.movingSolid(std::size_t(index)) : nullptr;
+      const Vec3d c = solid ? solid->center() : Vec3d::Constant(std::nan(""));
+      const Vec3d v = solid ? solid->velocity().linear : Vec3d::Constant(std::nan(""));
+      for (int a = 0; a < 3; ++a) row += "," + formatValue(c[a]);
+      for (int a = 0; a < 3; ++a) row += "," + formatValue(v[a]);
     } else if (probe.type == "front") {
       const Vec3r direction(Real(probe.direction[0]), Real(probe.direction[1]), Real(probe.direction[2]));
       row += "," + formatValue(surgeFront(particles.position, direction.normalized(), spacing));
@@ -234,6 +261,8 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
       if (result.interrupted) break;
       if (frame >= first) {
         writeParticleFrame(layout.particles(frame), frameOf(simulation, scene, frame));
+        // Moving solids: the solids at this frame for the renderer (geometry/solids.NNNN.obj).
+        if (simulation.hasMovingSolids()) writeObj(layout.solids(frame), simulation.solidsMesh());
         ++result.framesWritten;
       }
       if (hasProbes) writeTextAtomically(layout.probes(), probeHeader(scene) + state.probeRows);

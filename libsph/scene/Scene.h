@@ -115,9 +115,44 @@ struct Slope {
   double angle = 0;
 };
 
+/// One key of a keyframed motion (CONTRACT.md "Moving obstacles"): at time t the
+/// obstacle is moved by `translate` and turned by `rotate` (degrees about x, then y,
+/// then z) about the mesh's own origin (its placed `translate`), on top of its
+/// placement.
+struct Keyframe {
+  double t = 0;
+  Vec3 translate{0, 0, 0};
+  Vec3 rotate{0, 0, 0};
+};
+
+/// A piston wavemaker: displacement (stroke / 2) sin(2 pi t / period) along `axis`,
+/// the amplitude ramped up over `ramp` seconds.
+struct Piston {
+  Vec3 axis{1, 0, 0};
+  double stroke = 0.1;
+  double period = 1;
+  double ramp = 0;
+};
+
+/// A prescribed (kinematic) motion: keyframes or a piston, exactly one.
+struct Motion {
+  std::vector<Keyframe> keyframes;
+  std::optional<Piston> piston;
+};
+
+/// A rigid body that water and gravity move (two-way coupling): its density
+/// (mass from the closed mesh's volume) or its mass, one of the two.
+struct Dynamic {
+  double density = 0;   ///< kg/m^3; 0: use mass
+  double mass = 0;      ///< kg; 0: use density
+  double friction = 0.4;     ///< Coulomb friction against other solids
+  double restitution = 0.0;  ///< normal restitution against other solids
+};
+
 /// A mesh obstacle: file (absolute once resolved), transform applied as
 /// scale, then rotate (Euler XYZ degrees), then translate; simplified to
-/// `triangles` (0: as loaded).
+/// `triangles` (0: as loaded). It stands still, moves as prescribed (`motion`),
+/// or is a rigid body (`dynamic`); at most one of the two.
 struct Obstacle {
   std::string name;
   std::string mesh;
@@ -125,6 +160,8 @@ struct Obstacle {
   Vec3 rotate{0, 0, 0};
   double scale = 1;
   std::int64_t triangles = 0;
+  std::optional<Motion> motion;
+  std::optional<Dynamic> dynamic;
 };
 
 struct Boundaries {
@@ -161,9 +198,9 @@ struct Light {
 /// A probe of CONTRACT.md. Fields unused by a type keep their defaults.
 struct Probe {
   std::string name;
-  std::string type;                     ///< "height" | "pressure" | "force" | "front"
-  Vec3 at{0, 0, 0};                     ///< height: x, y (z ignored); pressure: x, y, z
-  std::string obstacle;                 ///< force
+  std::string type;                     ///< "height" | "pressure" | "force" | "front" | "body" | "velocity"
+  Vec3 at{0, 0, 0};                     ///< height: x, y (z ignored); pressure, velocity: x, y, z
+  std::string obstacle;                 ///< force, body
   Vec3 direction{1, 0, 0};              ///< front
 };
 

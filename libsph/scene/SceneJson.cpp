@@ -317,6 +317,71 @@ std::string resolveMesh(const ObjectReader& reader, const std::string& key, cons
   return fs::absolute(path, error).lexically_normal().string();
 }
 
+Keyframe readKeyframe(const Context& context, const json& value, const std::string& path) {
+  ObjectReader reader(context, value, path);
+  Keyframe key;
+  key.t = reader.requiredNumber("t");
+  key.translate = reader.vector<3>("translate", key.translate);
+  key.rotate = reader.vector<3>("rotate", key.rotate);
+  reader.finish();
+  return key;
+}
+
+Piston readPiston(const Context& context, const json& value, const std::string& path) {
+  ObjectReader reader(context, value, path);
+  Piston piston;
+  piston.axis = nonZeroVector(reader, "axis", piston.axis);  // kept as given; the consumer normalises
+  piston.stroke = reader.number("stroke", piston.stroke, Range::NonNegative);
+  piston.period = reader.number("period", piston.period, Range::Positive);
+  piston.ramp = reader.number("ramp", piston.ramp, Range::NonNegative);
+  reader.finish();
+  return piston;
+}
+
+/// "motion": {"keyframes": [...]} or {"piston": {...}}, exactly one.
+Motion readMotion(const Context& context, const json& value, const std::string& path) {
+  ObjectReader reader(context, value, path);
+  Motion motion;
+  const json* keyframes = reader.find("keyframes");
+  const json* piston = reader.find("piston");
+  if (keyframes && piston) reader.fail(path, "give either \"keyframes\" or \"piston\", not both");
+  if (!keyframes && !piston) {
+    reader.finish();  // a misspelt key: suggest the right one
+    reader.fail(path, "needs \"keyframes\" or \"piston\"");
+  }
+  if (keyframes) {
+    if (keyframes->is_array() && keyframes->empty())
+      reader.fail(reader.pathOf("keyframes"), "must not be empty");
+    reader.array("keyframes", [&](const json& item, const std::string& itemPath) {
+      const Keyframe key = readKeyframe(context, item, itemPath);
+      if (!motion.keyframes.empty() && !(key.t > motion.keyframes.back().t))
+        context.fail(itemPath + ".t", "keyframes must be in increasing time order (" + formatNumber(key.t) +
+                                          " after " + formatNumber(motion.keyframes.back().t) + ")");
+      motion.keyframes.push_back(key);
+    });
+  } else {
+    motion.piston = readPiston(context, *piston, reader.pathOf("piston"));
+  }
+  reader.finish();
+  return motion;
+}
+
+/// "dynamic": {"density": RHO} or {"mass": M} (one of the two), "friction", "restitution".
+Dynamic readDynamic(const Context& context, const json& value, const std::string& path) {
+  ObjectReader reader(context, value, path);
+  Dynamic dynamic;
+  const json* density = reader.find("density");
+  const json* mass = reader.find("mass");
+  if (density && mass) reader.fail(path, "give either \"density\" or \"mass\", not both");
+  if (density) dynamic.density = reader.checkNumber(*density, reader.pathOf("density"), Range::Positive);
+  if (mass) dynamic.mass = reader.checkNumber(*mass, reader.pathOf("mass"), Range::Positive);
+  dynamic.friction = reader.number("friction", dynamic.friction, Range::NonNegative);
+  dynamic.restitution = reader.numberIn("restitution", dynamic.restitution, 0, 1);
+  reader.finish();  // before "needs": a misspelt key gets its suggestion
+  if (!density && !mass) reader.fail(path, "needs \"density\" or \"mass\"");
+  return dynamic;
+}
+
 Obstacle readObstacle(const Context& context, const json& value, const std::string& path, std::size_t index) {
   ObjectReader reader(context, value, path);
   Obstacle obstacle;
@@ -326,6 +391,13 @@ Obstacle readObstacle(const Context& context, const json& value, const std::stri
   obstacle.rotate = reader.vector<3>("rotate", obstacle.rotate);
   obstacle.scale = reader.number("scale", obstacle.scale, Range::Positive);
   obstacle.triangles = reader.integer("triangles", obstacle.triangles, 0);
+  const json* motion = reader.find("motion");
+  const json* dynamic = reader.find("dynamic");
+  if (motion && dynamic)
+    reader.fail(reader.pathOf("dynamic"),
+                "cannot be combined with \"motion\" (an obstacle moves as prescribed or is a rigid body, not both)");
+  if (motion) obstacle.motion = readMotion(context, *motion, reader.pathOf("motion"));
+  if (dynamic) obstacle.dynamic = readDynamic(context, *dynamic, reader.pathOf("dynamic"));
   reader.finish();
   return obstacle;
 }
@@ -369,7 +441,7 @@ Probe readProbe(const Context& context, const json& value, const std::string& pa
   probe.name = reader.requiredString("name");
   for (char c : probe.name)
     if (c == ',' || c == '\n' || c == '"') reader.fail(reader.pathOf("name"), "must not contain , \" or newlines");
-  probe.type = reader.choice("type", "", {"height", "pressure", "force", "front"});
+  probe.type = reader.choice("type", "", {"height", "pressure", "force", "front", "body", "velocity"});
   if (probe.type == "height") {
     const json* at = reader.find("at");
     if (!at) reader.fail(reader.pathOf("at"), "missing required key");
@@ -379,12 +451,12 @@ Probe readProbe(const Context& context, const json& value, const std::string& pa
     } else {
       probe.at = reader.checkVector<3>(*at, reader.pathOf("at"), Range::Any);
     }
-  } else if (probe.type == "pressure") {
+  } else if (probe.type == "pressure" || probe.type == "velocity") {
     probe.at = reader.requiredVector<3>("at");
   } else {
     probe.at = reader.vector<3>("at", probe.at);
   }
-  if (probe.type == "force") probe.obstacle = reader.requiredString("obstacle");
+  if (probe.type == "force" || probe.type == "body") probe.obstacle = reader.requiredString("obstacle");
   else probe.obstacle = reader.string("obstacle", "");
   probe.direction = nonZeroVector(reader, "direction", probe.direction);
   reader.finish();
@@ -393,6 +465,31 @@ Probe readProbe(const Context& context, const json& value, const std::string& pa
 
 json vec(const Vec3& v) { return json::array({v[0], v[1], v[2]}); }
 json box(const Box& b) { return json{{"min", vec(b.min)}, {"max", vec(b.max)}}; }
+
+/// The unused alternative of each pair is written as null (read as absent), so
+/// that `--set` can reach it, e.g. --set ...dynamic.density=null --set ...dynamic.mass=5.
+json motionJson(const Motion& m) {
+  json keyframes = nullptr;
+  if (!m.piston) {
+    keyframes = json::array();
+    for (const Keyframe& k : m.keyframes)
+      keyframes.push_back({{"t", k.t}, {"translate", vec(k.translate)}, {"rotate", vec(k.rotate)}});
+  }
+  json piston = nullptr;
+  if (m.piston)
+    piston = {{"axis", vec(m.piston->axis)},
+              {"stroke", m.piston->stroke},
+              {"period", m.piston->period},
+              {"ramp", m.piston->ramp}};
+  return {{"keyframes", keyframes}, {"piston", piston}};
+}
+
+json dynamicJson(const Dynamic& d) {
+  return {{"density", d.density > 0 ? json(d.density) : json(nullptr)},
+          {"mass", d.density > 0 ? json(nullptr) : json(d.mass)},
+          {"friction", d.friction},
+          {"restitution", d.restitution}};
+}
 
 } // namespace
 
@@ -527,16 +624,24 @@ Scene parseScene(const json& value, const std::string& fileLabel, const fs::path
     Probe probe = readProbe(context, item, path);
     for (const Probe& other : scene.probes)
       if (other.name == probe.name) context.fail(path + ".name", "duplicate probe name \"" + probe.name + "\"");
-    if (probe.type == "force") {
+    if (probe.type == "force" || probe.type == "body") {
+      // A body probe follows an obstacle that moves: one with "motion" or "dynamic".
+      const bool body = probe.type == "body";
+      const auto moves = [](const Obstacle& o) { return o.motion.has_value() || o.dynamic.has_value(); };
       const auto& obstacles = scene.boundaries.obstacles;
-      const bool found = std::any_of(obstacles.begin(), obstacles.end(),
-                                     [&](const Obstacle& o) { return o.name == probe.obstacle; });
-      if (!found) {
+      const auto named = std::find_if(obstacles.begin(), obstacles.end(),
+                                      [&](const Obstacle& o) { return o.name == probe.obstacle; });
+      if (named == obstacles.end() || (body && !moves(*named))) {
         std::vector<std::string> names;
-        for (const Obstacle& o : obstacles) names.push_back(o.name);
+        for (const Obstacle& o : obstacles)
+          if (!body || moves(o)) names.push_back(o.name);
         const std::string near = nearestWord(probe.obstacle, names);
-        context.fail(path + ".obstacle", "no obstacle named \"" + probe.obstacle + "\"" +
-                                             (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+        const std::string suggestion = near.empty() ? "" : " (did you mean '" + near + "'?)";
+        if (named == obstacles.end())
+          context.fail(path + ".obstacle", "no obstacle named \"" + probe.obstacle + "\"" + suggestion);
+        context.fail(path + ".obstacle", "obstacle \"" + probe.obstacle +
+                                             "\" stands still; a body probe needs one with \"motion\" or "
+                                             "\"dynamic\"" + suggestion);
       }
     }
     scene.probes.push_back(std::move(probe));
@@ -613,7 +718,9 @@ json sceneToJson(const Scene& scene) {
                                        {"translate", vec(o.translate)},
                                        {"rotate", vec(o.rotate)},
                                        {"scale", o.scale},
-                                       {"triangles", o.triangles}});
+                                       {"triangles", o.triangles},
+                                       {"motion", o.motion ? motionJson(*o.motion) : json(nullptr)},
+                                       {"dynamic", o.dynamic ? dynamicJson(*o.dynamic) : json(nullptr)}});
   boundaries["domain"] = b.domain ? box(*b.domain) : json(nullptr);
   boundaries["kill"] = json::array();
   for (const Box& k : b.kill) boundaries["kill"].push_back(box(k));
@@ -628,7 +735,7 @@ json sceneToJson(const Scene& scene) {
   json probes = json::array();
   for (const Probe& p : scene.probes) {
     json probe{{"name", p.name}, {"type", p.type}, {"at", vec(p.at)}, {"direction", vec(p.direction)}};
-    if (p.type == "force" || !p.obstacle.empty()) probe["obstacle"] = p.obstacle;
+    if (p.type == "force" || p.type == "body" || !p.obstacle.empty()) probe["obstacle"] = p.obstacle;
     probes.push_back(probe);
   }
 

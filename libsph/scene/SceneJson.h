@@ -18,7 +18,10 @@
 ///     default-filled scene (VALUE parsed as JSON, else taken as a string);
 ///     a PATH that does not exist there is an error; then validate again.
 /// The result written by sceneToJson() parses back to the same scene
-/// (parse -> write -> parse is the identity).
+/// (parse -> write -> parse is the identity). Absent optional objects and the
+/// unused one of two alternatives are written as null (read as absent) so that
+/// `--set` can reach them: boundaries.tank, boundaries.obstacles[i].motion /
+/// .dynamic, motion.keyframes / motion.piston, dynamic.density / dynamic.mass.
 #pragma once
 
 #include "libsph/scene/Scene.h"

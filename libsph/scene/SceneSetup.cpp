@@ -1,6 +1,8 @@
 #include "libsph/scene/SceneSetup.h"
 
 #include "libsph/Errors.h"
+#include "libsph/bodies/MassProperties.h"
+#include "libsph/bodies/MovingBoundary.h"
 #include "libsph/boundary/BoxBoundary.h"
 #include "libsph/boundary/MeshBoundary.h"
 #include "libsph/boundary/PlaneBoundary.h"
@@ -137,15 +139,63 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
     solid->setName(slope.name);
     simulation.addBoundary(std::move(solid));
   }
-  for (const Obstacle& obstacle : b.obstacles) {
+  std::vector<std::size_t> moving;  // boundary indices of the moving obstacles
+  for (std::size_t k = 0; k < b.obstacles.size(); ++k) {
+    const Obstacle& obstacle = b.obstacles[k];
+    const std::string path = "boundaries.obstacles[" + std::to_string(k) + "]";
     MeshObstacleOptions options;
     options.transform.translation = toVec(obstacle.translate);
     options.transform.rotation = Transform::rotationFromEulerDegrees(toVec(obstacle.rotate));
     options.transform.scale = Real(obstacle.scale);
     options.targetTriangles = std::size_t(obstacle.triangles);
-    auto mesh = MeshBoundary::load(obstacle.mesh, options, log);
+    // A body's mass from its volume needs the mesh as given: no silently filled holes.
+    const bool massFromVolume = obstacle.dynamic && !(obstacle.dynamic->mass > 0);
+    if (massFromVolume) options.requireClosed = false;
+    std::unique_ptr<MeshBoundary> mesh = MeshBoundary::load(obstacle.mesh, options, log);
     mesh->setName(obstacle.name);
-    simulation.addBoundary(std::move(mesh));
+    if (obstacle.dynamic) {
+      const Dynamic& dynamic = *obstacle.dynamic;
+      if (const std::size_t open = countBorderEdges(mesh->mesh()); open > 0)
+        throw InputError(obstacle.mesh + ": " + path + ".dynamic: the mesh is not closed (" + std::to_string(open) +
+                         " open edges), so its volume and mass are unknown: give \"mass\"");
+      MassProperties properties =
+          massPropertiesOfMesh(mesh->mesh(), massFromVolume ? dynamic.density : 1.0, obstacle.mesh + ": " + path);
+      if (!massFromVolume) properties = withMass(properties, dynamic.mass);
+      if (log)
+        *log << obstacle.name << ": rigid body, mass " << properties.mass << " kg, volume " << properties.volume
+             << " m^3, centre of mass (" << properties.centerOfMass.x() << ", " << properties.centerOfMass.y() << ", "
+             << properties.centerOfMass.z() << ")\n";
+      moving.push_back(simulation.addBoundary(std::make_unique<MovingBoundary>(
+          std::move(mesh), RigidBody(properties, dynamic.friction, dynamic.restitution))));
+    } else if (obstacle.motion) {
+      const Vec3d origin(obstacle.translate[0], obstacle.translate[1], obstacle.translate[2]);
+      KinematicMotion motion = obstacle.motion->piston ? KinematicMotion::piston(*obstacle.motion->piston, origin)
+                                                       : KinematicMotion::fromKeyframes(obstacle.motion->keyframes, origin);
+      moving.push_back(simulation.addBoundary(std::make_unique<MovingBoundary>(std::move(mesh), std::move(motion))));
+    } else {
+      simulation.addBoundary(std::move(mesh));
+    }
+  }
+  // A moving solid may not start inside another solid: its hull points, and the
+  // other solids' hull points (meshes) inside it.
+  for (const std::size_t m : moving) {
+    const auto& solid = static_cast<const MovingBoundary&>(simulation.boundary(m));
+    const RigidPose pose = solid.pose();
+    for (std::size_t other = 0; other < simulation.boundaryCount(); ++other) {
+      if (other == m) continue;
+      const Boundary& them = simulation.boundary(other);
+      bool overlap = false;
+      for (const Vec3d& p : solid.hull())
+        if (them.isInside(pose.apply(p).cast<Real>())) overlap = true;
+      if (!overlap && them.kind() != "tank" && them.kind() != "plane")
+        for (const Eigen::Vector3f& v : them.surfaceMesh().vertices)
+          if (solid.isInside(v)) overlap = true;
+      if (overlap) {
+        const std::size_t k = m - (simulation.boundaryCount() - b.obstacles.size());
+        throw InputError(b.obstacles[k].mesh + ": boundaries.obstacles[" + std::to_string(k) +
+                         "]: starts overlapping the solid \"" + them.name() + "\"; move it clear at t = 0");
+      }
+    }
   }
   // A block that reaches into a solid (an obstacle, or past the tank's walls) fills only
   // the space around it: particles inside a solid would stay trapped there. Blocks fill

@@ -2,6 +2,7 @@
 
 #include "libsph/Errors.h"
 #include "libsph/Kernels.h"
+#include "libsph/bodies/MovingBoundary.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/search/MortonCode.h"
 
@@ -71,7 +72,7 @@ void sampleBoundaries(const TimeStep& timeStep, const SimulationSettings& settin
   particles.sample(boundaries, gap, std::max(r0, needs.sampleRadius));
 }
 
-constexpr char kMagic[8] = {'C', 'S', 'C', 'D', 'S', 'I', 'M', '1'};
+constexpr char kMagic[8] = {'C', 'S', 'C', 'D', 'S', 'I', 'M', '2'};  // 2: moving solids' state
 
 template <typename T>
 void writePod(std::ostream& out, const T& value) {
@@ -133,6 +134,7 @@ std::size_t Simulation::addBoundary(BoundaryPtr boundary) {
   if (boundary->name().empty()) boundary->setName(boundary->kind() + std::to_string(mBoundaries.size()));
   mBoundaries.push_back(std::move(boundary));
   mObstacleForce.assign(mBoundaries.size(), Vec3d::Zero());
+  mObstacleMoment.assign(mBoundaries.size(), Vec3d::Zero());
   if (mStarted) {
     sampleBoundaries(*mTimeStep, mSettings, mConstants, mBoundaries, mBoundaryParticles);
   }
@@ -254,12 +256,18 @@ void Simulation::start() {
         for (int corner = 0; corner < 8; ++corner) {
           const Vec3r c((corner & 1) ? hi.x() : lo.x(), (corner & 2) ? hi.y() : lo.y(), (corner & 4) ? hi.z() : lo.z());
           bottom = std::min(bottom, c.dot(up));
+          const auto* moving = dynamic_cast<const MovingBoundary*>(b.get());
+          if (moving && moving->isDynamic()) top = std::max(top, c.dot(up));  // a body dropped from above the water
         }
       }
       fall = std::sqrt(Real(2) * g * std::max(Real(0), top - bottom));
     }
     const Real floor = std::sqrt(Real(2) * kStandardGravity * mConstants.supportRadius);
-    expected = std::max({fall, std::sqrt(speed2), floor});
+    Real motion = 0;  // prescribed motions, over all time
+    for (const BoundaryPtr& b : mBoundaries)
+      if (const auto* moving = dynamic_cast<const MovingBoundary*>(b.get()))
+        motion = std::max(motion, Real(moving->maxMotionSpeed()));
+    expected = std::max({fall, std::sqrt(speed2), floor, motion});
   }
   mConstants.expectedSpeed = expected;
   mConstants.stiffness = solver.stiffness > 0 ? solver.stiffness : Real(100) * expected * expected;
@@ -284,6 +292,7 @@ void Simulation::start() {
   mPendingBoxes.clear();
   sampleBoundaries(*mTimeStep, mSettings, mConstants, mBoundaries, mBoundaryParticles);
   mObstacleForce.assign(mBoundaries.size(), Vec3d::Zero());
+  mObstacleMoment.assign(mBoundaries.size(), Vec3d::Zero());
 }
 
 double Simulation::computeTimeStep() const {
@@ -296,7 +305,8 @@ double Simulation::computeTimeStep() const {
       },
       [](Real a, Real b) { return std::max(a, b); });
   const double h = mConstants.supportRadius;
-  const double maxSpeed = std::sqrt(double(maxSpeed2));
+  // A moving solid's fastest point counts as a particle: the fluid it meets soon moves as fast.
+  const double maxSpeed = std::max(std::sqrt(double(maxSpeed2)), maxSolidSpeed());
   const TimeStepNeeds needs = mTimeStep->needs(mSettings, mConstants);
   const double cfl = needs.maxCflFactor > 0 ? std::min(solver.cflFactor, needs.maxCflFactor) : solver.cflFactor;
   double dt = cfl * h / (double(mConstants.speedOfSound) + maxSpeed);
@@ -374,13 +384,15 @@ double Simulation::step() {
 
   mAcceleration.resize(mParticles.size());
   mObstacleForce.assign(mBoundaries.size(), Vec3d::Zero());
+  mObstacleMoment.assign(mBoundaries.size(), Vec3d::Zero());
   const std::vector<std::uint32_t>& layer = mBoundaryParticles.layer();
   mLayerStart.resize(layer.size());
   for (std::size_t k = 0; k < layer.size(); ++k) mLayerStart[k] = mParticles.position[layer[k]];
   StepContext context{mParticles, mNeighbors, mBoundaryParticles, mSettings, mConstants,
-                      mAcceleration, mObstacleForce, mTimings, mTime, 0};
+                      mAcceleration, mObstacleForce, mObstacleMoment, mTimings, mTime, 0};
   mTimeStep->advance(context, static_cast<Real>(dt));
   begin = Clock::now();
+  moveSolids(dt);
   keepOutOfSolids();
   mTimings.boundary += millisecondsSince(begin);
   mLastMaxAcceleration = context.maxAcceleration;
@@ -466,7 +478,7 @@ void Simulation::keepOutOfSolids() {
           for (const BoundaryPtr& b : mBoundaries) {
             if (!b->penetrated(from, to, clearance, exit, normal)) continue;
             Vec3r& v = mParticles.velocity[i];
-            v -= std::min(v.dot(normal), Real(0)) * normal;
+            v -= std::min((v - b->velocityAt(exit)).dot(normal), Real(0)) * normal;  // relative to the wall
             mParticles.position[i] = exit;
             ++count;
             break;
@@ -511,6 +523,44 @@ Vec3d Simulation::obstacleForce(std::size_t index) const {
   return index < mObstacleForce.size() ? mObstacleForce[index] : Vec3d::Zero();
 }
 
+Vec3d Simulation::obstacleTorque(std::size_t index, const Vec3d& center) const {
+  if (index >= mObstacleMoment.size()) return Vec3d::Zero();
+  return mObstacleMoment[index] - center.cross(mObstacleForce[index]);
+}
+
+bool Simulation::hasMovingSolids() const {
+  for (const BoundaryPtr& b : mBoundaries)
+    if (b->moves()) return true;
+  return false;
+}
+
+const MovingBoundary* Simulation::movingSolid(std::size_t index) const {
+  return index < mBoundaries.size() ? dynamic_cast<const MovingBoundary*>(mBoundaries[index].get()) : nullptr;
+}
+
+double Simulation::maxSolidSpeed() const {
+  double speed = 0;
+  for (const BoundaryPtr& b : mBoundaries)
+    if (const auto* moving = dynamic_cast<const MovingBoundary*>(b.get())) speed = std::max(speed, moving->maxSurfaceSpeed());
+  return speed;
+}
+
+void Simulation::moveSolids(double dt) {
+  if (!hasMovingSolids()) return;
+  // Contacts of rigid bodies: with the solids at rest (tank, planes, slopes, static meshes).
+  std::vector<const Boundary*> atRest;
+  for (const BoundaryPtr& b : mBoundaries)
+    if (!b->moves()) atRest.push_back(b.get());
+  const Vec3d gravity = mSettings.solver.gravity.cast<double>();
+  const Real clearance = Real(0.01) * mSettings.fluid.spacing;
+  for (std::size_t b = 0; b < mBoundaries.size(); ++b) {
+    auto* moving = dynamic_cast<MovingBoundary*>(mBoundaries[b].get());
+    if (moving == nullptr) continue;
+    const Vec3d center = moving->center();
+    moving->advance(mTime + dt, dt, mObstacleForce[b], obstacleTorque(b, center), gravity, atRest, clearance);
+  }
+}
+
 TriangleMesh Simulation::solidsMesh() const {
   TriangleMesh all;
   for (const BoundaryPtr& b : mBoundaries) {
@@ -542,6 +592,9 @@ void Simulation::save(std::ostream& out) const {
   writeArray(out, mParticles.pressure);
   writeArray(out, mParticles.id);
   writeArray(out, mObstacleForce);
+  writeArray(out, mObstacleMoment);
+  for (const BoundaryPtr& b : mBoundaries)
+    if (const auto* moving = dynamic_cast<const MovingBoundary*>(b.get())) moving->save(out);
   mTimeStep->save(out);
   if (!out) throw std::runtime_error("checkpoint: write failed");
 }
@@ -574,6 +627,9 @@ void Simulation::restore(std::istream& in) {
   readArray(in, mParticles.pressure, n);
   readArray(in, mParticles.id, n);
   readArray(in, mObstacleForce, boundaries);
+  readArray(in, mObstacleMoment, boundaries);
+  for (const BoundaryPtr& b : mBoundaries)
+    if (auto* moving = dynamic_cast<MovingBoundary*>(b.get())) moving->restore(in);
   mTimeStep->resize(n);
   mTimeStep->restore(in);
   if (mStarted) {

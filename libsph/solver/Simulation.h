@@ -6,7 +6,11 @@
 ///
 /// Each step: (every reorderInterval steps, Morton reorder for locality) ->
 /// neighbour lists once (reused by every pass) -> boundary particles of the
-/// step -> the strategy's passes -> domain removal and instability check.
+/// step (moving solids at their poses at the step's start) -> the strategy's
+/// passes -> moving solids to the step's end (a prescribed motion, or a rigid
+/// body under the step's fluid force and torque and gravity) -> the guard that
+/// keeps particles out of solids -> domain removal and instability check.
+/// The CFL speed includes the moving solids' fastest surface point.
 /// dt = clamp(min(cflFactor h / (c + v_max), 0.125 h^2 / nu, 0.25 sqrt(h / a_max)),
 /// minTimeStep, maxTimeStep) (Monaghan 1992; Becker & Teschner 2007).
 ///
@@ -29,6 +33,8 @@
 #include <vector>
 
 namespace cascade {
+
+class MovingBoundary;
 
 class Simulation {
 public:
@@ -96,6 +102,14 @@ public:
   /// Force the fluid exerted on boundary `index` during the last step, N
   /// (type I repulsion and type II mirror pressure and viscosity).
   Vec3d obstacleForce(std::size_t index) const;
+  /// Its torque about `center` (world), N m.
+  Vec3d obstacleTorque(std::size_t index, const Vec3d& center) const;
+
+  // --- moving solids (libsph/bodies/MovingBoundary.h) ---
+  /// True if any boundary moves.
+  bool hasMovingSolids() const;
+  /// The moving solid at `index`, or null if that boundary stands still.
+  const MovingBoundary* movingSolid(std::size_t index) const;
 
   /// The type I particles (after the first step or nextTimeStep()).
   const BoundaryParticles& boundaryParticles() const { return mBoundaryParticles; }
@@ -138,6 +152,10 @@ private:
   void reorder();
   void removeOutside();
   void keepOutOfSolids();
+  /// Moves the moving solids over the step just taken (dt, ending at mTime + dt).
+  void moveSolids(double dt);
+  /// Fastest surface speed of the moving solids now.
+  double maxSolidSpeed() const;
   void checkStability() const;
   double computeTimeStep() const;
 
@@ -150,7 +168,7 @@ private:
   std::unique_ptr<TimeStep> mTimeStep;
   NeighborLists mNeighbors;
   std::vector<Vec3r> mAcceleration;
-  std::vector<Vec3d> mObstacleForce;
+  std::vector<Vec3d> mObstacleForce, mObstacleMoment;
   StepTimings mTimings;
   double mTime = 0, mLastTimeStep = 0;
   Real mLastMaxAcceleration = 0;

@@ -52,6 +52,9 @@ struct StepContext {
   const DerivedConstants& constants;
   std::vector<Vec3r>& acceleration;      ///< scratch, one per particle
   std::vector<Vec3d>& obstacleForce;     ///< out: force on each boundary by the fluid, N
+  /// out: moment of that force about the world origin, sum x × F over the points the
+  /// forces act at (a type I sample; a mirror's plane), N m (torque on moving solids).
+  std::vector<Vec3d>& obstacleMoment;
   StepTimings& timings;
   double time = 0;                       ///< s, at the start of the step
   Real maxAcceleration = 0;              ///< out: largest |a| of the step (force limit of dt)

@@ -363,6 +363,7 @@ void TimeStepDFSPH::prepare(StepContext& c) {
   const std::vector<std::uint32_t>& layer = boundary.layer();
   const bool mirrors = boundary.mirrorOffsets().size() == n + 1 && !maps.empty();
   mLayerIndex.assign(n, kNotInLayer);
+  mWallRate.clear();
   mGhostOffsets.assign(1, 0);
   mGhostSource.clear();
   mGhostMap.clear();
@@ -375,6 +376,7 @@ void TimeStepDFSPH::prepare(StepContext& c) {
       for (std::uint32_t m = mapOffsets[i]; m < mapOffsets[i + 1]; ++m) {
         const MirrorMap& map = maps[m];
         auto image = [&](std::uint32_t j) {
+          if (map.behind(xi, particles.position[j])) return;
           const Vec3r r = xi - map.apply(particles.position[j]);
           if (r.squaredNorm() < h2) visit(j, m, r);
         };
@@ -397,8 +399,10 @@ void TimeStepDFSPH::prepare(StepContext& c) {
     mGhostVelocityGradient.resize(total);
     mGhostValue.resize(total);
     mGhostOffset.resize(total);
+    mWallRate.assign(layer.size(), Real(0));
     tbb::parallel_for(std::size_t(0), layer.size(), [&](std::size_t k) {
       std::uint32_t g = mGhostOffsets[k];
+      Real wallRate = 0;
       forEachGhost(layer[k], [&](std::uint32_t j, std::uint32_t m, const Vec3r& r) {
         mGhostSource[g] = j;
         mGhostMap[g] = m;
@@ -409,8 +413,12 @@ void TimeStepDFSPH::prepare(StepContext& c) {
             noSlip && !maps[m].symmetry ? Vec3r(-gradient) : Vec3r(maps[m].linear.transpose() * gradient);
         mGhostValue[g] = volume * kernel.value(r.norm());
         mGhostOffset[g] = r;
+        // A moving wall: the image's velocity is L v_j + w_g (MirrorMap::imageVelocity).
+        const MirrorMap& map = maps[m];
+        if (!map.wallVelocity.isZero()) wallRate += map.imageVelocity(Vec3r::Zero(), noSlip).dot(gradient);
         ++g;
       });
+      mWallRate[k] = wallRate;
     });
   }
 
@@ -528,10 +536,11 @@ void TimeStepDFSPH::prepare(StepContext& c) {
         // slip): a no-slip wall exerts friction and any wall damps approaching motion.
         const Vec3r& x = mGhostOffset[g];
         const MirrorMap& map = maps[mGhostMap[g]];
-        const Vec3r image = noSlip && !map.symmetry ? Vec3r(-velocity[j]) : Vec3r(map.linear * velocity[j]);
+        const Vec3r image = map.imageVelocity(velocity[j], noSlip);
         const Real vx = (vi - image).dot(x);
         viscous += (viscousFactor(vx) * vx / (x.squaredNorm() + epsilon2)) * G;
       }
+      rate += mWallRate[l];
       denominator = gradientSum.dot(change) + gradientSquares + imageCouplings(images, xi, particles.position, kernel, volume, h2);
       for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g)
         if (mGhostSource[g] == i) {
@@ -577,8 +586,9 @@ void TimeStepDFSPH::applyWallShear(StepContext& c, Real dt) {
         const Real twice = toImage.norm();
         if (!(twice > Real(0)) || Real(0.5) * twice >= spacing) continue;
         const Vec3r normal = toImage / twice;
-        const Real normalSpeed = velocity[i].dot(normal);
-        velocity[i] = normalSpeed * normal + decay * (velocity[i] - normalSpeed * normal);
+        const Vec3r relative = velocity[i] - map.wallVelocity;  // slip over the wall, moving or not
+        const Real normalSpeed = relative.dot(normal);
+        velocity[i] = map.wallVelocity + normalSpeed * normal + decay * (relative - normalSpeed * normal);
         touching = true;
       }
     }
@@ -636,9 +646,11 @@ Real TimeStepDFSPH::densityRate(const std::vector<Vec3r>& velocity, std::size_t 
     rate += vj.x() * pair[k].gx + vj.y() * pair[k].gy + vj.z() * pair[k].gz;
   }
   const std::uint32_t l = mLayerIndex[i];
-  if (l != kNotInLayer)
+  if (l != kNotInLayer) {
     for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g)
       rate += velocity[mGhostSource[g]].dot(mGhostVelocityGradient[g]);
+    rate += mWallRate[l];
+  }
   return velocity[i].dot(mGradientSum[i]) - rate;
 }
 
@@ -648,6 +660,7 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   resize(n);
   mStatistics = Statistics();
   std::fill(c.obstacleForce.begin(), c.obstacleForce.end(), Vec3d::Zero());
+  std::fill(c.obstacleMoment.begin(), c.obstacleMoment.end(), Vec3d::Zero());
   if (n == 0) return;
   const SolverSettings& solver = c.settings.solver;
   mPairOffsets = c.neighbors.offsets.data();
@@ -792,23 +805,33 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
     constexpr std::size_t kLayerChunk = 256;
     const std::size_t chunks = (layer.size() + kLayerChunk - 1) / kLayerChunk;
     std::vector<Vec3d> chunkForce(chunks * boundaryCount, Vec3d::Zero());
+    std::vector<Vec3d> chunkMoment(chunks * boundaryCount, Vec3d::Zero());
     tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t chunk) {
       Vec3d* force = chunkForce.data() + chunk * boundaryCount;
+      Vec3d* moment = chunkMoment.data() + chunk * boundaryCount;
       const std::size_t end = std::min(layer.size(), (chunk + 1) * kLayerChunk);
       for (std::size_t k = chunk * kLayerChunk; k < end; ++k) {
         const std::uint32_t i = layer[k];
         const Real ki = reportedDensityKappa[i] + reportedDivergenceKappa[i];
+        const Vec3r xi = particles.position[i];
         for (std::uint32_t g = mGhostOffsets[k]; g < mGhostOffsets[k + 1]; ++g) {
           const std::uint32_t j = mGhostSource[g];
-          const std::uint32_t owner = maps[mGhostMap[g]].boundary;
+          const MirrorMap& map = maps[mGhostMap[g]];
+          const std::uint32_t owner = map.boundary;
           if (owner >= boundaryCount) continue;
           const Real kj = reportedDensityKappa[j] + reportedDivergenceKappa[j];
-          force[owner] += (mass * (ki + kj) * mGhostGradient[g]).cast<double>();
+          const Vec3d f = (mass * (ki + kj) * mGhostGradient[g]).cast<double>();
+          force[owner] += f;
+          // acting where the map's plane is (halfway to i's own image)
+          moment[owner] += (Real(0.5) * (xi + map.apply(xi))).cast<double>().cross(f);
         }
       }
     });
     for (std::size_t chunk = 0; chunk < chunks; ++chunk)
-      for (std::size_t b = 0; b < boundaryCount; ++b) c.obstacleForce[b] += chunkForce[chunk * boundaryCount + b];
+      for (std::size_t b = 0; b < boundaryCount; ++b) {
+        c.obstacleForce[b] += chunkForce[chunk * boundaryCount + b];
+        c.obstacleMoment[b] += chunkMoment[chunk * boundaryCount + b];
+      }
   }
   c.timings.boundary += millisecondsSince(start);
 
@@ -831,7 +854,8 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
         if (!(twice > Real(0))) continue;
         const Vec3r normal = toImage / twice;
         const Real distance = Real(0.5) * twice;
-        const Real normalSpeed = velocity[i].dot(normal);
+        const Real wallSpeed = map.wallVelocity.dot(normal);  // a moving wall's, along the normal
+        const Real normalSpeed = velocity[i].dot(normal) - wallSpeed;
         const Real limit = (minDistance - distance) / dt;  // speed that lands on minDistance
         if (normalSpeed < limit) velocity[i] += (std::min(limit, Real(0)) - normalSpeed) * normal;
       }

@@ -160,6 +160,9 @@ private:
   std::vector<Vec3r> mGhostGradient, mGhostVelocityGradient;  // G, and L^T G for the image's velocity L v_j
   std::vector<Real> mGhostValue;
   std::vector<Vec3r> mGhostOffset;  // x_i - x_image
+  // Per layer particle: sum over its ghosts of w_g . G_g, the part of the images' velocity
+  // that a moving wall adds (w_g = (I - L) w free slip, 2 w no slip; 0 for walls at rest).
+  std::vector<Real> mWallRate;
   // Rest volume of one particle: 1 / (sum of W over the initial lattice).
   Real mRestVolume = 0, mFactorFloor = 0, mLatticeSupport = 0;
   Statistics mStatistics;

@@ -543,13 +543,13 @@ void addMirrorDensity(StepContext& c, const Workspace& workspace) {
         const MirrorMap& map = boundary.mirrors()[m];
         // The mirror of i itself, then of each neighbour.
         add(squaredDistance(xi, map.apply(xi)));
-        if (isOrthogonal(map.linear)) {
+        if (isOrthogonal(map.linear) && !map.frontOnly) {
           // |x_i - (M x_j + o)| = |M^T (x_i - o) - x_j|: the fluid sum around i's pre-image.
           const Vec3r preImage = map.linear.transpose() * (xi - map.offset);
           sum += kernelSum(kernel, records, preImage, nl.begin(i), nl.count(i));
         } else {
           for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j)
-            add(squaredDistance(xi, map.apply(particles.position[*j])));
+            if (!map.behind(xi, particles.position[*j])) add(squaredDistance(xi, map.apply(particles.position[*j])));
         }
       }
       particles.density[i] += scale * kernel.valueCoeff * sum;
@@ -612,6 +612,7 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
   const std::vector<std::uint32_t>& layer = boundary.layer();
   const std::size_t boundaryCount = c.obstacleForce.size();
   std::fill(c.obstacleForce.begin(), c.obstacleForce.end(), Vec3d::Zero());
+  std::fill(c.obstacleMoment.begin(), c.obstacleMoment.end(), Vec3d::Zero());
   if (layer.empty()) return;
   const ForceConstants k = forceConstants(c, workspace);
   const Real viscosityCoeff = viscosityFactor(c);
@@ -637,8 +638,14 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
   constexpr std::size_t kChunk = 256;
   const std::size_t chunks = (layer.size() + kChunk - 1) / kChunk;
   std::vector<Vec3d> chunkForce(chunks * boundaryCount, Vec3d::Zero());
+  std::vector<Vec3d> chunkMoment(chunks * boundaryCount, Vec3d::Zero());
   tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t chunk) {
     Vec3d* force = chunkForce.data() + chunk * boundaryCount;
+    Vec3d* moment = chunkMoment.data() + chunk * boundaryCount;
+    const auto react = [&](std::uint32_t owner, const Vec3d& f, const Vec3r& at) {
+      force[owner] += f;
+      moment[owner] += at.cast<double>().cross(f);
+    };
     const std::size_t end = std::min(layer.size(), (chunk + 1) * kChunk);
     for (std::size_t kk = chunk * kChunk; kk < end; ++kk) {
       const std::uint32_t i = layer[kk];
@@ -649,12 +656,13 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
       for (std::uint32_t m = boundary.mirrorOffsets()[i]; m < boundary.mirrorOffsets()[i + 1]; ++m) {
         const MirrorMap& map = boundary.mirrors()[m];
         Vec3r a = Vec3r::Zero();
-        if (!noSlip && isOrthogonal(map.linear)) {
-          // Free slip: the mirror of j at M x_j + o with velocity M v_j. With
-          // y = M^T (x_i - o) and u = M^T v_i, x_i - M x_j - o = M (y - x_j) and
-          // v_i - M v_j = M (u - v_j): the fluid sums around (y, u), turned by M.
+        if (!noSlip && isOrthogonal(map.linear) && !map.frontOnly) {
+          // Free slip: the mirror of j at M x_j + o with velocity w + M (v_j - w) (w
+          // the wall's velocity). With y = M^T (x_i - o) and u = M^T (v_i - w) + w,
+          // x_i - M x_j - o = M (y - x_j) and v_i - w - M (v_j - w) = M (u - v_j):
+          // the fluid sums around (y, u), turned by M.
           const Vec3r y = map.linear.transpose() * (xi - map.offset);
-          const Vec3r u = map.linear.transpose() * vi;
+          const Vec3r u = map.linear.transpose() * (vi - map.wallVelocity) + map.wallVelocity;
           const Real invRhoi = Real(1) / rhoi;
           const ForceQuery q{y.x(), y.y(), y.z(), u.x(), u.y(), u.z(), pi, rhoi, invRhoi};
           const std::uint32_t self = i;
@@ -662,15 +670,15 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
           addPairTerms(k, q, records[self], sums);
           a = map.linear * (sums.pressure - (viscosityCoeff * invRhoi) * sums.viscous);
         } else {
-          // The mirror images themselves: position M x_j + o, velocity -v_j
-          // (no slip) or M v_j (free slip), j's pressure and density.
+          // The mirror images themselves: position M x_j + o, velocity 2 w - v_j
+          // (no slip) or w + M (v_j - w) (free slip), j's pressure and density.
           const Real invRhoi = Real(1) / rhoi;
           const ForceQuery q{xi.x(), xi.y(), xi.z(), vi.x(), vi.y(), vi.z(), pi, rhoi, invRhoi};
           ForceSums sums;
           auto visit = [&](std::uint32_t j) {
+            if (map.behind(xi, particles.position[j])) return;  // its image would lie in the fluid
             const Vec3r x = map.apply(particles.position[j]);
-            const Vec3r& vj = particles.velocity[j];
-            const Vec3r v = noSlip ? Vec3r(-vj) : Vec3r(map.linear * vj);
+            const Vec3r v = map.imageVelocity(particles.velocity[j], noSlip);
             const PairInput image{x.x(), x.y(), x.z(), particles.pressure[j],
                                   v.x(), v.y(), v.z(), particles.density[j]};
             addPairTerms(k, q, image, sums);
@@ -680,7 +688,9 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
           a = sums.pressure - (viscosityCoeff * invRhoi) * sums.viscous;
         }
         total += a;
-        if (map.boundary < boundaryCount) force[map.boundary] -= (mass * a).cast<double>();
+        // acting where the map's plane is (halfway to i's own image)
+        if (map.boundary < boundaryCount)
+          react(map.boundary, -(mass * a).cast<double>(), Real(0.5) * (xi + map.apply(xi)));
       }
       // Type I: SEED (11) f = D [(r0/r)^12 - (r0/r)^4] r / r^2, for r < r0.
       if (strength > 0 && sampleLists.count(i) > 0) {
@@ -697,6 +707,7 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
         constexpr int kSolids = 4;
         std::uint32_t solid[kSolids];
         Vec3r push[kSolids];
+        Vec3r wallVelocity[kSolids];  // of a sample of each solid (zero at rest)
         Real scale[kSolids];
         int solids = 0;
         const auto slotOf = [&](std::uint32_t owner) {
@@ -708,7 +719,9 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
         for (const std::uint32_t* s = sampleLists.begin(i); s != sampleLists.end(i); ++s)
           if (repulsion(*s, a)) {
             const int k = slotOf(owners[*s]);
-            if (k == solids) solid[solids] = owners[*s], push[solids] = Vec3r::Zero(), scale[solids++] = 1;
+            if (k == solids)
+              solid[solids] = owners[*s], push[solids] = Vec3r::Zero(), wallVelocity[solids] = boundary.sampleVelocity(*s),
+              scale[solids++] = 1;
             push[k] += a;
           }
         // Wedge contact limiter (not in the SEED): between two solids (a wedge of
@@ -725,7 +738,8 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
           for (int k = 0; k < solids; ++k) {
             const Real magnitude = push[k].norm();
             if (magnitude <= 0) continue;
-            const Real approach = std::max(Real(0), -w.dot(push[k]) / magnitude);
+            const Vec3r relative = w - wallVelocity[k];  // the approach to the solid, moving or not
+            const Real approach = std::max(Real(0), -relative.dot(push[k]) / magnitude);
             if (solids == 1 && (approach <= fastApproach || approach > blastApproach)) continue;
             const Real allowed = (approach + std::max(approach, contactSpeed)) / timeStep;
             if (magnitude > allowed) scale[k] = allowed / magnitude;
@@ -734,14 +748,18 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
         for (int k = 0; k < solids; ++k) total += scale[k] * push[k];
         for (const std::uint32_t* s = sampleLists.begin(i); s != sampleLists.end(i); ++s) {
           const std::uint32_t owner = owners[*s];
-          if (owner < boundaryCount && repulsion(*s, a)) force[owner] -= (mass * scale[slotOf(owner)] * a).cast<double>();
+          if (owner < boundaryCount && repulsion(*s, a))
+            react(owner, -(mass * scale[slotOf(owner)] * a).cast<double>(), samples[*s]);
         }
       }
       c.acceleration[i] += total;
     }
   });
   for (std::size_t chunk = 0; chunk < chunks; ++chunk)
-    for (std::size_t b = 0; b < boundaryCount; ++b) c.obstacleForce[b] += chunkForce[chunk * boundaryCount + b];
+    for (std::size_t b = 0; b < boundaryCount; ++b) {
+      c.obstacleForce[b] += chunkForce[chunk * boundaryCount + b];
+      c.obstacleMoment[b] += chunkMoment[chunk * boundaryCount + b];
+    }
 }
 
 Real integrateSymplecticEuler(StepContext& c, Real dt) {

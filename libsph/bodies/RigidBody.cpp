@@ -1,0 +1,133 @@
+#include "libsph/bodies/RigidBody.h"
+
+#include "libsph/Errors.h"
+
+#include <algorithm>
+#include <cmath>
+#include <istream>
+#include <ostream>
+
+namespace cascade {
+
+RigidBody::RigidBody(const MassProperties& reference, double friction, double restitution)
+    : mReference(reference), mFriction(friction), mRestitution(restitution), mCenter(reference.centerOfMass) {
+  mInverseInertia = reference.inertia.inverse();
+}
+
+RigidPose RigidBody::pose() const {
+  RigidPose pose;
+  pose.rotation = mOrientation.toRotationMatrix();
+  pose.translation = mCenter - pose.rotation * mReference.centerOfMass;
+  return pose;
+}
+
+RigidVelocity RigidBody::velocity() const {
+  RigidVelocity v;
+  v.linear = mVelocity;
+  v.angular = mAngularVelocity;
+  v.center = mCenter;
+  return v;
+}
+
+Mat3d RigidBody::worldInverseInertia() const {
+  const Mat3d r = mOrientation.toRotationMatrix();
+  return r * mInverseInertia * r.transpose();
+}
+
+void RigidBody::integrate(const Vec3d& force, const Vec3d& torque, double dt) {
+  // Symplectic Euler: velocities from the forces at the step's start, then the pose.
+  mVelocity += (dt / mReference.mass) * force;
+  const Mat3d r = mOrientation.toRotationMatrix();
+  const Mat3d inertia = r * mReference.inertia * r.transpose();
+  const Mat3d inverse = r * mInverseInertia * r.transpose();
+  mAngularVelocity += dt * (inverse * (torque - mAngularVelocity.cross(inertia * mAngularVelocity)));
+  mCenter += dt * mVelocity;
+  // dq/dt = (1/2) (0, w) q, then back to unit length
+  const Eigen::Quaterniond spin(0, mAngularVelocity.x(), mAngularVelocity.y(), mAngularVelocity.z());
+  Eigen::Quaterniond q = mOrientation;
+  const Eigen::Quaterniond dq = spin * q;
+  q.coeffs() += (0.5 * dt) * dq.coeffs();
+  mOrientation = q.normalized();
+}
+
+void RigidBody::resolveContacts(const std::vector<RigidContact>& contacts) {
+  if (contacts.empty()) return;
+  // Positions: the smallest translation that clears every contact along its normal
+  // (a few passes over the set: two walls at a corner add up).
+  Vec3d shift = Vec3d::Zero();
+  for (int pass = 0; pass < 4; ++pass)
+    for (const RigidContact& c : contacts) {
+      const double missing = c.depth - shift.dot(c.normal);
+      if (missing > 0) shift += missing * c.normal;
+    }
+  mCenter += shift;
+  // Velocities: sequential impulses on the accumulated impulse (normal >= 0, friction
+  // within mu times it).
+  const Mat3d inverse = worldInverseInertia();
+  const double inverseMass = 1.0 / mReference.mass;
+  std::vector<double> normalImpulse(contacts.size(), 0.0);
+  std::vector<Vec3d> frictionImpulse(contacts.size(), Vec3d::Zero());
+  std::vector<double> bounce(contacts.size(), 0.0);
+  for (std::size_t k = 0; k < contacts.size(); ++k) {
+    const Vec3d r = contacts[k].point + shift - mCenter;
+    const double approach = (mVelocity + mAngularVelocity.cross(r)).dot(contacts[k].normal);
+    bounce[k] = approach < 0 ? -mRestitution * approach : 0.0;
+  }
+  const auto effectiveInverseMass = [&](const Vec3d& r, const Vec3d& direction) {
+    return inverseMass + direction.dot((inverse * r.cross(direction)).cross(r));
+  };
+  const auto applyImpulse = [&](const Vec3d& r, const Vec3d& impulse) {
+    mVelocity += inverseMass * impulse;
+    mAngularVelocity += inverse * r.cross(impulse);
+  };
+  for (int iteration = 0; iteration < 16; ++iteration)
+    for (std::size_t k = 0; k < contacts.size(); ++k) {
+      const Vec3d n = contacts[k].normal;
+      const Vec3d r = contacts[k].point + shift - mCenter;
+      Vec3d relative = mVelocity + mAngularVelocity.cross(r);
+      const double vn = relative.dot(n);
+      const double total = std::max(0.0, normalImpulse[k] + (bounce[k] - vn) / effectiveInverseMass(r, n));
+      applyImpulse(r, (total - normalImpulse[k]) * n);
+      normalImpulse[k] = total;
+      relative = mVelocity + mAngularVelocity.cross(r);
+      const Vec3d tangential = relative - relative.dot(n) * n;
+      const double slide = tangential.norm();
+      if (slide <= 0) continue;
+      const Vec3d t = tangential / slide;
+      Vec3d friction = frictionImpulse[k] - (slide / effectiveInverseMass(r, t)) * t;
+      const double limit = mFriction * normalImpulse[k];
+      if (friction.norm() > limit) friction *= limit / friction.norm();
+      applyImpulse(r, friction - frictionImpulse[k]);
+      frictionImpulse[k] = friction;
+    }
+}
+
+namespace {
+template <typename T>
+void writeValue(std::ostream& out, const T& value) {
+  out.write(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+template <typename T>
+void readValue(std::istream& in, T& value) {
+  in.read(reinterpret_cast<char*>(&value), sizeof(T));
+  if (!in) throw InputError("checkpoint: truncated rigid body state");
+}
+} // namespace
+
+void RigidBody::save(std::ostream& out) const {
+  writeValue(out, mCenter);
+  writeValue(out, mOrientation.coeffs().eval());
+  writeValue(out, mVelocity);
+  writeValue(out, mAngularVelocity);
+}
+
+void RigidBody::restore(std::istream& in) {
+  Eigen::Vector4d coefficients;
+  readValue(in, mCenter);
+  readValue(in, coefficients);
+  mOrientation.coeffs() = coefficients;
+  readValue(in, mVelocity);
+  readValue(in, mAngularVelocity);
+}
+
+} // namespace cascade

@@ -1,0 +1,175 @@
+// Unit tests of moving solids (issue 16): a MovingBoundary answers every query
+// in its reference frame (inside, mirrors, the guard), its mirrors carry the
+// wall's velocity, its type I samples are placed, not re-sampled; a rigid body
+// falls freely and comes to rest on the floor; action and reaction; exact
+// restarts with a body.
+#include "BodyTestScenes.h"
+
+#include "libsph/boundary/BoundaryParticles.h"
+#include "libsph/Errors.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <sstream>
+
+namespace cascade::test {
+
+namespace {
+
+scene::Keyframe key(double t, scene::Vec3 translate, scene::Vec3 rotate) {
+  scene::Keyframe k;
+  k.t = t;
+  k.translate = translate;
+  k.rotate = rotate;
+  return k;
+}
+
+/// A 0.1 m cube at [0.2, 0.3]^3 turning 90 degrees about z and moving 0.2 m along x over 1 s.
+std::unique_ptr<MovingBoundary> turningCube(double t) {
+  auto mesh = boxObstacle(Vec3r(0.2f, 0.2f, 0.2f), Vec3r(0.3f, 0.3f, 0.3f), "cube");
+  const Vec3d origin(0.25, 0.25, 0.25);
+  auto motion = KinematicMotion::fromKeyframes({key(0, {0, 0, 0}, {0, 0, 0}), key(1, {0.2, 0, 0}, {0, 0, 90})}, origin);
+  auto solid = std::make_unique<MovingBoundary>(std::move(mesh), std::move(motion));
+  solid->moveTo(t);
+  return solid;
+}
+
+} // namespace
+
+TEST(MovingBoundary, QueriesFollowThePose) {
+  const auto solid = turningCube(0.5);
+  const RigidPose pose = solid->pose();
+  // Half way: 45 degrees about z about the moved centre (0.35, 0.25, 0.25).
+  EXPECT_NEAR(pose.apply(Vec3d(0.25, 0.25, 0.25)).x(), 0.35, 1e-12);
+  for (const Vec3d& reference : {Vec3d(0.25, 0.25, 0.25), Vec3d(0.29, 0.21, 0.25), Vec3d(0.31, 0.25, 0.25),
+                                Vec3d(0.25, 0.25, 0.35)}) {
+    const Vec3r world = pose.apply(reference).cast<Real>();
+    EXPECT_EQ(solid->isInside(world), solid->reference().isInside(reference.cast<Real>())) << reference.transpose();
+  }
+  // A point 2 mm off the turned +x face (its normal is (1, 1, 0) / sqrt 2 now).
+  const Vec3d faceCentre = pose.apply(Vec3d(0.3, 0.25, 0.25));
+  const Vec3d normal = pose.rotation * Vec3d::UnitX();
+  const Vec3r x = (faceCentre + 0.002 * normal).cast<Real>();
+  std::vector<MirrorMap> maps;
+  solid->mirrorMaps(x, 0.01f, 7, maps);
+  ASSERT_EQ(maps.size(), 1u);
+  EXPECT_EQ(maps[0].boundary, 7u);
+  // The image lies 2 mm inside, across the face.
+  const Vec3r image = maps[0].apply(x);
+  EXPECT_NEAR(double((image - (faceCentre - 0.002 * normal).cast<Real>()).norm()), 0.0, 1e-6);
+  // The wall's velocity at the mirror plane: translation 0.2 m/s + omega x r.
+  const RigidVelocity v = solid->velocity();
+  EXPECT_NEAR(v.angular.z(), M_PI / 2, 1e-9);
+  const Vec3d expected = Vec3d(0.2, 0, 0) + v.angular.cross(faceCentre - Vec3d(0.35, 0.25, 0.25));
+  EXPECT_NEAR(double((maps[0].wallVelocity.cast<double>() - expected).norm()), 0.0, 1e-5);
+  // Images of a fluid particle at rest move with the wall: free slip keeps the tangential
+  // part of the relative velocity, no slip is 2 w - v.
+  const Vec3r w = maps[0].wallVelocity;
+  EXPECT_NEAR(double((maps[0].imageVelocity(Vec3r::Zero(), true) - 2 * w).norm()), 0.0, 1e-6);
+  const Vec3r n = normal.cast<Real>();
+  const Vec3r freeSlip = maps[0].imageVelocity(Vec3r::Zero(), false);
+  EXPECT_NEAR(double(freeSlip.dot(n)), double(2 * w.dot(n)), 1e-6);  // the normal part reflected about w
+}
+
+TEST(MovingBoundary, AWallMovingOntoAParticleCountsAsPenetration) {
+  // A cube moving 0.2 m/s along x over a particle at rest just in front of its +x face.
+  auto solid = turningCube(0.0);
+  auto mesh = boxObstacle(Vec3r(0.2f, 0.2f, 0.2f), Vec3r(0.3f, 0.3f, 0.3f), "slider");
+  auto slider = std::make_unique<MovingBoundary>(
+      std::move(mesh), KinematicMotion::fromKeyframes({key(0, {0, 0, 0}, {0, 0, 0}), key(1, {0.2, 0, 0}, {0, 0, 0})},
+                                                      Vec3d(0.25, 0.25, 0.25)));
+  const Vec3r particle(0.301f, 0.25f, 0.25f);
+  slider->advance(0.01, 0.01, Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), {}, 0);  // face now at x = 0.302
+  Vec3r exit, normal;
+  ASSERT_TRUE(slider->penetrated(particle, particle, 0.001f, exit, normal));
+  EXPECT_NEAR(double(normal.x()), 1.0, 1e-6);
+  EXPECT_NEAR(double(exit.x()), 0.303, 1e-5);  // a clearance off the face where it is now
+  EXPECT_NEAR(double(slider->velocityAt(exit).x()), 0.2, 1e-6);
+  // A particle already clear of the moved face is not caught.
+  EXPECT_FALSE(slider->penetrated(Vec3r(0.31f, 0.25f, 0.25f), Vec3r(0.31f, 0.25f, 0.25f), 0.001f, exit, normal));
+}
+
+TEST(MovingBoundary, SamplesArePlacedNotResampled) {
+  std::vector<BoundaryPtr> boundaries;
+  boundaries.push_back(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(1, 1, 1)));
+  boundaries.push_back(turningCube(0.0));
+  BoundaryParticles particles;
+  const Real gap = 0.0025f, radius = 0.005f;
+  particles.sample(boundaries, gap, radius);
+  std::vector<Vec3r> reference;
+  static_cast<const MovingBoundary&>(*boundaries[1]).reference().sampleSurface(gap, reference);
+  const std::size_t total = particles.sampleCount();
+  const std::vector<std::size_t> counts = particles.samplesPerBoundary(2);
+  ASSERT_EQ(counts[1], reference.size());
+  // Move the cube; the samples follow its pose exactly (same set, same count).
+  static_cast<MovingBoundary&>(*boundaries[1]).moveTo(0.7);
+  Particles fluid;
+  const RigidPose pose = boundaries[1]->pose();
+  // Fluid particles next to the moved cube's faces and corners, and one far away.
+  for (const Vec3d& p : {Vec3d(0.3035, 0.25, 0.25), Vec3d(0.2, 0.2, 0.2), Vec3d(0.3, 0.3, 0.302), Vec3d(0.8, 0.8, 0.8)})
+    fluid.add(pose.apply(p).cast<Real>(), Vec3r::Zero(), ParticleId(fluid.size()));
+  particles.update(fluid, boundaries, radius, 0.01f, true, false);
+  EXPECT_EQ(particles.sampleCount(), total);
+  std::vector<Vec3r> placed;
+  for (std::size_t k = 0; k < total; ++k)
+    if (particles.sampleOwners()[k] == 1) placed.push_back(particles.samplePositions()[k]);
+  // Each placed sample is the pose applied to a reference sample (as sets).
+  std::vector<Vec3r> expected;
+  for (const Vec3r& r : reference) expected.push_back(pose.apply(r.cast<double>()).cast<Real>());
+  auto less = [](const Vec3r& a, const Vec3r& b) { return std::lexicographical_compare(a.data(), a.data() + 3, b.data(), b.data() + 3); };
+  std::sort(placed.begin(), placed.end(), less);
+  std::sort(expected.begin(), expected.end(), less);
+  ASSERT_EQ(placed.size(), expected.size());
+  double worst = 0;
+  for (std::size_t k = 0; k < placed.size(); ++k) worst = std::max(worst, double((placed[k] - expected[k]).norm()));
+  EXPECT_LT(worst, 1e-6);
+  // Each particle's list is exactly the samples within the radius (brute force, world positions).
+  for (std::size_t i = 0; i < fluid.size(); ++i) {
+    std::vector<std::uint32_t> listed(particles.sampleNeighbors().begin(i), particles.sampleNeighbors().end(i));
+    std::vector<std::uint32_t> brute;
+    for (std::uint32_t k = 0; k < total; ++k)
+      if ((particles.samplePositions()[k] - fluid.position[i]).squaredNorm() < radius * radius * 0.9999f) brute.push_back(k);
+    std::sort(listed.begin(), listed.end());
+    for (std::uint32_t k : brute) EXPECT_TRUE(std::binary_search(listed.begin(), listed.end(), k)) << "particle " << i;
+    for (std::uint32_t k : listed)
+      EXPECT_LE((particles.samplePositions()[k] - fluid.position[i]).norm(), radius * 1.0001f) << "particle " << i;
+    // Velocities of the moving samples are the cube's field.
+    for (std::uint32_t k : listed) {
+      if (particles.sampleOwners()[k] != 1) continue;
+      EXPECT_NEAR(double((particles.sampleVelocity(k) - boundaries[1]->velocityAt(particles.samplePositions()[k])).norm()),
+                    0.0, 1e-6);
+    }
+  }
+  EXPECT_GT(particles.sampleNeighbors().count(0), 0u);
+  EXPECT_EQ(particles.sampleNeighbors().count(3), 0u);
+}
+
+TEST(RigidBody, FallsFreelyThenRestsOnTheFloor) {
+  // No fluid: a 0.1 m cube of density 800 dropped from 0.2 m falls as g t^2 / 2 and
+  // comes to rest on the tank floor, upright, without sinking into it.
+  SimulationSettings settings;
+  settings.fluid.spacing = 0.01f;
+  Simulation sim(settings);
+  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(0.5f, 0.5f, 0.5f)));
+  const std::size_t index = sim.addBoundary(floatingCube(Vec3r(0.25f, 0.25f, 0.2f), 0.1f, 800));
+  const MovingBoundary& cube = *sim.movingSolid(index);
+  const double z0 = cube.center().z();
+  sim.advanceTo(0.1);
+  // Symplectic Euler: the velocity is exact, the fall at most g t dt / 2 further (dt <= 5 ms).
+  const double fall = z0 - cube.center().z();
+  EXPECT_GE(fall, 0.5 * 9.81 * 0.01 - 1e-9);
+  EXPECT_LE(fall, 0.5 * 9.81 * 0.01 + 0.5 * 9.81 * 0.1 * double(settings.solver.maxTimeStep));
+  EXPECT_NEAR(cube.velocity().linear.z(), -0.981, 1e-6);  // g is a float
+  sim.advanceTo(1.0);
+  const double bottom = cube.center().z() - 0.05;
+  EXPECT_GT(bottom, -1e-4);
+  EXPECT_LT(bottom, 1e-3);
+  EXPECT_LT(cube.velocity().linear.norm(), 1e-3);
+  EXPECT_LT(cube.velocity().angular.norm(), 1e-3);
+  const Eigen::AngleAxisd turned(cube.body()->orientation());
+  EXPECT_LT(std::abs(turned.angle()), 1e-3);
+  EXPECT_NEAR(cube.center().x(), 0.25, 1e-6);
+}
+
+} // namespace cascade::test
