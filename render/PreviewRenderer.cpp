@@ -144,7 +144,7 @@ struct PreviewRenderer::Impl {
   std::size_t fluidIndexCount = 0, solidsVertexCount = 0, sphereCount = 0;
   const TriangleMesh* solidsKey = nullptr;
   std::size_t solidsKeyTriangles = 0, solidsKeyVertices = 0;
-  Eigen::Vector3f solidsKeyFirst = Eigen::Vector3f::Zero();
+  std::uint64_t solidsKeyHash = 0;
 
   GLuint shadowFbo = 0, shadowTexture = 0, waterShadowFbo = 0, waterShadowTexture = 0;
   GLuint msFbo = 0, msColor = 0, msDepth = 0;
@@ -516,9 +516,13 @@ void PreviewRenderer::Impl::uploadFluid(const TriangleMesh& mesh, float& normalS
 }
 
 void PreviewRenderer::Impl::uploadSolids(const TriangleMesh& mesh) {
+  // Solids that move (a frame's own solids.NNNN.obj) may reuse the last frame's storage:
+  // the key is the vertex data itself (FNV-1a over its bytes), not the address.
+  std::uint64_t hash = 1469598103934665603ULL;
+  const auto* bytes = reinterpret_cast<const unsigned char*>(mesh.vertices.data());
+  for (std::size_t k = 0; k < mesh.vertices.size() * sizeof(mesh.vertices[0]); ++k) hash = (hash ^ bytes[k]) * 1099511628211ULL;
   const bool same = solidsKey == &mesh && solidsKeyTriangles == mesh.triangles.size() &&
-                    solidsKeyVertices == mesh.vertices.size() &&
-                    (mesh.vertices.empty() || solidsKeyFirst == mesh.vertices.front());
+                    solidsKeyVertices == mesh.vertices.size() && solidsKeyHash == hash;
   if (same) return;
   const std::size_t n = mesh.vertices.size();
   for (const auto& t : mesh.triangles)
@@ -563,7 +567,7 @@ void PreviewRenderer::Impl::uploadSolids(const TriangleMesh& mesh) {
   solidsKey = &mesh;
   solidsKeyTriangles = mesh.triangles.size();
   solidsKeyVertices = mesh.vertices.size();
-  solidsKeyFirst = mesh.vertices.empty() ? Eigen::Vector3f::Zero() : mesh.vertices.front();
+  solidsKeyHash = hash;
 }
 
 void PreviewRenderer::Impl::uploadSpheres(const ParticleSpheres& particles) {

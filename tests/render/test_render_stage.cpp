@@ -210,3 +210,31 @@ TEST(RenderStage, BadSceneCameraIsBadInputNamingTheJsonPath) {
   }
   fs::remove_all(out);
 }
+
+// Moving solids: each frame draws its own geometry/solids.NNNN.obj. Three frames whose
+// solids differ only in a box's height, rendered in one run, are each the same image
+// as that frame rendered alone (the renderer keeps no stale solids between frames).
+TEST(RenderStage, DrawsEachFramesOwnSolids) {
+  const fs::path out = freshOut("render_moving_solids");
+  writeScene(out);
+  const float heights[3] = {0.2f, 0.5f, 0.8f};
+  for (int f = 1; f <= 3; ++f) {
+    writeObj(out / "mesh" / ("fluid.000" + std::to_string(f) + ".obj"), blob(0.3f));
+    TriangleMesh solids = makeBox({-1, -1, -0.05f}, {1, 1, 0}, "tank");
+    solids.append(makeBox({0.3f, -0.6f, heights[f - 1]}, {0.7f, -0.2f, heights[f - 1] + 0.3f}, "crate"));
+    writeObj(out / "geometry" / ("solids.000" + std::to_string(f) + ".obj"), solids);
+  }
+  RenderOptions options = smallOptions();
+  options.meshUp = RenderOptions::MeshUp::Z;
+  ASSERT_EQ(renderOutput(out, options).rendered, (std::vector<int>{1, 2, 3}));
+  std::vector<Image> together;
+  for (int f = 1; f <= 3; ++f) together.push_back(readPng(out / "render" / ("frame.000" + std::to_string(f) + ".png")));
+  EXPECT_NE(together[0].rgba, together[2].rgba);  // the crate moved
+  for (int f = 1; f <= 3; ++f) {
+    options.force = true;
+    options.frames = parseFrameRange(std::to_string(f));
+    ASSERT_EQ(renderOutput(out, options).rendered, (std::vector<int>{f}));
+    EXPECT_EQ(readPng(out / "render" / ("frame.000" + std::to_string(f) + ".png")).rgba, together[f - 1].rgba)
+        << "frame " << f;
+  }
+}
