@@ -66,6 +66,12 @@ double MovingBoundary::maxSurfaceSpeed() const {
   return mVelocity.linear.norm() + mVelocity.angular.norm() * mRadius;
 }
 
+void MovingBoundary::applyImpulse(const Vec3d& impulse, const Vec3d& angular) {
+  if (!mBody) return;
+  mBody->applyImpulse(impulse, angular);
+  mVelocity = mBody->velocity();
+}
+
 double MovingBoundary::maxMotionSpeed() const {
   return mMotion ? mMotion->maxSpeed(0.0, 1e30, mRadius) : 0.0;
 }

@@ -65,6 +65,9 @@ public:
   /// contacts with `solids` (those at rest). The pose before is kept for penetrated().
   void advance(double t, double dt, const Vec3d& fluidForce, const Vec3d& fluidTorque, const Vec3d& gravity,
                const std::vector<const Boundary*>& solids, Real clearance);
+  /// A rigid body takes an impulse (N s) and angular impulse about its centre of mass
+  /// (N m s) at once: the guard's push on particles it had moved onto. Others ignore it.
+  void applyImpulse(const Vec3d& impulse, const Vec3d& angular);
   /// Sets the pose for time t without a step (start, restore): kinematic only.
   void moveTo(double t);
 

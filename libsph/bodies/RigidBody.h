@@ -58,6 +58,11 @@ public:
 
   /// One step under `force` and `torque` (about the centre of mass), N and N m.
   void integrate(const Vec3d& force, const Vec3d& torque, double dt);
+  /// An impulse (N s) and angular impulse about the centre of mass (N m s), at once.
+  void applyImpulse(const Vec3d& impulse, const Vec3d& angular) {
+    mVelocity += impulse / mReference.mass;
+    mAngularVelocity += worldInverseInertia() * angular;
+  }
   /// Clears the contacts (positions, then velocities); see the file comment.
   void resolveContacts(const std::vector<RigidContact>& contacts);
 

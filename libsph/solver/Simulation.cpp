@@ -134,6 +134,7 @@ std::size_t Simulation::addBoundary(BoundaryPtr boundary) {
   if (boundary->name().empty()) boundary->setName(boundary->kind() + std::to_string(mBoundaries.size()));
   mBoundaries.push_back(std::move(boundary));
   mObstacleForce.assign(mBoundaries.size(), Vec3d::Zero());
+  mReportedForce.assign(mBoundaries.size(), Vec3d::Zero());
   mObstacleMoment.assign(mBoundaries.size(), Vec3d::Zero());
   if (mStarted) {
     sampleBoundaries(*mTimeStep, mSettings, mConstants, mBoundaries, mBoundaryParticles);
@@ -292,6 +293,7 @@ void Simulation::start() {
   mPendingBoxes.clear();
   sampleBoundaries(*mTimeStep, mSettings, mConstants, mBoundaries, mBoundaryParticles);
   mObstacleForce.assign(mBoundaries.size(), Vec3d::Zero());
+  mReportedForce.assign(mBoundaries.size(), Vec3d::Zero());
   mObstacleMoment.assign(mBoundaries.size(), Vec3d::Zero());
 }
 
@@ -384,16 +386,17 @@ double Simulation::step() {
 
   mAcceleration.resize(mParticles.size());
   mObstacleForce.assign(mBoundaries.size(), Vec3d::Zero());
+  mReportedForce.assign(mBoundaries.size(), Vec3d::Zero());
   mObstacleMoment.assign(mBoundaries.size(), Vec3d::Zero());
   const std::vector<std::uint32_t>& layer = mBoundaryParticles.layer();
   mLayerStart.resize(layer.size());
   for (std::size_t k = 0; k < layer.size(); ++k) mLayerStart[k] = mParticles.position[layer[k]];
   StepContext context{mParticles, mNeighbors, mBoundaryParticles, mSettings, mConstants,
-                      mAcceleration, mObstacleForce, mObstacleMoment, mTimings, mTime, 0};
+                      mAcceleration, mObstacleForce, mReportedForce, mObstacleMoment, mTimings, mTime, 0};
   mTimeStep->advance(context, static_cast<Real>(dt));
   begin = Clock::now();
   moveSolids(dt);
-  keepOutOfSolids();
+  keepOutOfSolids(dt);
   mTimings.boundary += millisecondsSince(begin);
   mLastMaxAcceleration = context.maxAcceleration;
   mTime += dt;
@@ -464,29 +467,55 @@ void Simulation::removeOutside() {
 /// out (a quarter spacing off the face where it entered, or where the step started)
 /// and loses the part of its velocity into the solid: only energy is taken, and no
 /// particle stays in a solid.
-void Simulation::keepOutOfSolids() {
+void Simulation::keepOutOfSolids(double dt) {
   const std::vector<std::uint32_t>& layer = mBoundaryParticles.layer();
   if (layer.empty() || mBoundaries.empty()) return;
   const Real clearance = Real(0.25) * mSettings.fluid.spacing;
-  mKeptOutCount += tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, layer.size(), 256), std::uint64_t(0),
-      [&](const auto& range, std::uint64_t count) {
-        for (std::size_t k = range.begin(); k != range.end(); ++k) {
-          const std::uint32_t i = layer[k];
-          const Vec3r from = mLayerStart[k], to = mParticles.position[i];
-          Vec3r exit, normal;
-          for (const BoundaryPtr& b : mBoundaries) {
-            if (!b->penetrated(from, to, clearance, exit, normal)) continue;
-            Vec3r& v = mParticles.velocity[i];
-            v -= std::min((v - b->velocityAt(exit)).dot(normal), Real(0)) * normal;  // relative to the wall
-            mParticles.position[i] = exit;
-            ++count;
-            break;
-          }
-        }
-        return count;
-      },
-      std::plus<std::uint64_t>());
+  // The velocity the guard takes is the wall's push: a force on it (-m dv / dt), summed
+  // in fixed chunks in order (deterministic); a rigid body gets the impulse at once (it
+  // has already moved for this step).
+  const std::size_t boundaries = mBoundaries.size();
+  constexpr std::size_t kChunk = 256;
+  const std::size_t chunks = (layer.size() + kChunk - 1) / kChunk;
+  std::vector<Vec3d> chunkSums(chunks * 2 * boundaries, Vec3d::Zero());
+  std::vector<std::uint64_t> chunkCounts(chunks, 0);
+  const double mass = double(mConstants.particleMass);
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t chunk) {
+    Vec3d* impulse = chunkSums.data() + chunk * 2 * boundaries;
+    Vec3d* angular = impulse + boundaries;
+    const std::size_t end = std::min(layer.size(), (chunk + 1) * kChunk);
+    for (std::size_t k = chunk * kChunk; k < end; ++k) {
+      const std::uint32_t i = layer[k];
+      const Vec3r from = mLayerStart[k], to = mParticles.position[i];
+      Vec3r exit, normal;
+      for (std::size_t b = 0; b < boundaries; ++b) {
+        if (!mBoundaries[b]->penetrated(from, to, clearance, exit, normal)) continue;
+        Vec3r& v = mParticles.velocity[i];
+        const Vec3r change = -std::min((v - mBoundaries[b]->velocityAt(exit)).dot(normal), Real(0)) * normal;
+        v += change;  // relative to the wall
+        mParticles.position[i] = exit;
+        const Vec3d j = -mass * change.cast<double>();  // on the wall
+        impulse[b] += j;
+        angular[b] += exit.cast<double>().cross(j);
+        ++chunkCounts[chunk];
+        break;
+      }
+    }
+  });
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+    mKeptOutCount += chunkCounts[chunk];
+    if (chunkCounts[chunk] == 0) continue;
+    for (std::size_t b = 0; b < boundaries; ++b) {
+      const Vec3d& j = chunkSums[chunk * 2 * boundaries + b];
+      const Vec3d& l = chunkSums[chunk * 2 * boundaries + boundaries + b];
+      if (j.isZero() && l.isZero()) continue;
+      mObstacleForce[b] += j / dt;
+      mReportedForce[b] += j / dt;
+      mObstacleMoment[b] += l / dt;
+      if (auto* moving = dynamic_cast<MovingBoundary*>(mBoundaries[b].get()); moving && moving->isDynamic())
+        moving->applyImpulse(j, l - moving->center().cross(j));
+    }
+  }
 }
 
 void Simulation::checkStability() const {
@@ -520,6 +549,10 @@ void Simulation::checkStability() const {
 }
 
 Vec3d Simulation::obstacleForce(std::size_t index) const {
+  return index < mReportedForce.size() ? mReportedForce[index] : Vec3d::Zero();
+}
+
+Vec3d Simulation::exchangedForce(std::size_t index) const {
   return index < mObstacleForce.size() ? mObstacleForce[index] : Vec3d::Zero();
 }
 
@@ -592,6 +625,7 @@ void Simulation::save(std::ostream& out) const {
   writeArray(out, mParticles.pressure);
   writeArray(out, mParticles.id);
   writeArray(out, mObstacleForce);
+  writeArray(out, mReportedForce);
   writeArray(out, mObstacleMoment);
   for (const BoundaryPtr& b : mBoundaries)
     if (const auto* moving = dynamic_cast<const MovingBoundary*>(b.get())) moving->save(out);
@@ -627,6 +661,7 @@ void Simulation::restore(std::istream& in) {
   readArray(in, mParticles.pressure, n);
   readArray(in, mParticles.id, n);
   readArray(in, mObstacleForce, boundaries);
+  readArray(in, mReportedForce, boundaries);
   readArray(in, mObstacleMoment, boundaries);
   for (const BoundaryPtr& b : mBoundaries)
     if (auto* moving = dynamic_cast<MovingBoundary*>(b.get())) moving->restore(in);

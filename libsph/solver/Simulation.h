@@ -100,8 +100,12 @@ public:
   Real particleMass() const;
 
   /// Force the fluid exerted on boundary `index` during the last step, N
-  /// (type I repulsion and type II mirror pressure and viscosity).
+  /// (type I repulsion and type II mirror pressure and viscosity), as force probes
+  /// report it (StepContext::reportedObstacleForce).
   Vec3d obstacleForce(std::size_t index) const;
+  /// The force exactly exchanged in the last step: minus the boundary's impulse on the
+  /// fluid over dt (the guard's too); what moves a rigid body.
+  Vec3d exchangedForce(std::size_t index) const;
   /// Its torque about `center` (world), N m.
   Vec3d obstacleTorque(std::size_t index, const Vec3d& center) const;
 
@@ -151,7 +155,7 @@ private:
   std::vector<FluidBoxRecord> mPendingBoxes;
   void reorder();
   void removeOutside();
-  void keepOutOfSolids();
+  void keepOutOfSolids(double dt);
   /// Moves the moving solids over the step just taken (dt, ending at mTime + dt).
   void moveSolids(double dt);
   /// Fastest surface speed of the moving solids now.
@@ -168,7 +172,7 @@ private:
   std::unique_ptr<TimeStep> mTimeStep;
   NeighborLists mNeighbors;
   std::vector<Vec3r> mAcceleration;
-  std::vector<Vec3d> mObstacleForce, mObstacleMoment;
+  std::vector<Vec3d> mObstacleForce, mReportedForce, mObstacleMoment;
   StepTimings mTimings;
   double mTime = 0, mLastTimeStep = 0;
   Real mLastMaxAcceleration = 0;

@@ -51,7 +51,12 @@ struct StepContext {
   const SimulationSettings& settings;
   const DerivedConstants& constants;
   std::vector<Vec3r>& acceleration;      ///< scratch, one per particle
-  std::vector<Vec3d>& obstacleForce;     ///< out: force on each boundary by the fluid, N
+  /// out: force on each boundary by the fluid in this step, N: exactly minus the impulse
+  /// the boundary gave the fluid over dt (action = reaction; what moves a rigid body)
+  std::vector<Vec3d>& obstacleForce;
+  /// out: the same as force probes report it (a strategy may smooth its solver's
+  /// iteration noise: DFSPH's shortened steps report the last regular step's pressure)
+  std::vector<Vec3d>& reportedObstacleForce;
   /// out: moment of that force about the world origin, sum x × F over the points the
   /// forces act at (a type I sample; a mirror's plane), N m (torque on moving solids).
   std::vector<Vec3d>& obstacleMoment;

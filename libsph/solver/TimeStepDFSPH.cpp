@@ -399,6 +399,7 @@ void TimeStepDFSPH::prepare(StepContext& c) {
     mGhostVelocityGradient.resize(total);
     mGhostValue.resize(total);
     mGhostOffset.resize(total);
+    mGhostViscous.resize(total);
     mWallRate.assign(layer.size(), Real(0));
     tbb::parallel_for(std::size_t(0), layer.size(), [&](std::size_t k) {
       std::uint32_t g = mGhostOffsets[k];
@@ -538,7 +539,8 @@ void TimeStepDFSPH::prepare(StepContext& c) {
         const MirrorMap& map = maps[mGhostMap[g]];
         const Vec3r image = map.imageVelocity(velocity[j], noSlip);
         const Real vx = (vi - image).dot(x);
-        viscous += (viscousFactor(vx) * vx / (x.squaredNorm() + epsilon2)) * G;
+        mGhostViscous[g] = (viscousFactor(vx) * vx / (x.squaredNorm() + epsilon2)) * G;  // a wall force too
+        viscous += mGhostViscous[g];
       }
       rate += mWallRate[l];
       denominator = gradientSum.dot(change) + gradientSquares + imageCouplings(images, xi, particles.position, kernel, volume, h2);
@@ -661,6 +663,7 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   mStatistics = Statistics();
   std::fill(c.obstacleForce.begin(), c.obstacleForce.end(), Vec3d::Zero());
   std::fill(c.obstacleMoment.begin(), c.obstacleMoment.end(), Vec3d::Zero());
+  std::fill(c.reportedObstacleForce.begin(), c.reportedObstacleForce.end(), Vec3d::Zero());
   if (n == 0) return;
   const SolverSettings& solver = c.settings.solver;
   mPairOffsets = c.neighbors.offsets.data();
@@ -796,71 +799,83 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   start = Clock::now();
   const std::size_t boundaryCount = c.obstacleForce.size();
   const std::vector<std::uint32_t>& layer = c.boundary.layer();
-  if (boundaryCount > 0 && !mGhostSource.empty()) {
-    // Force on a solid = -(impulse its mirror particles gave the fluid) / dt
-    // = sum m (kappa_i + kappa_j) V grad W_ij' over the mirror pairs, with kappa the
-    // step's total (divergence and density solves; a shortened step: the last regular
-    // step's); summed in fixed chunks in order.
+  if (!layer.empty() && !maps.empty()) {
+    // Everything the walls did to the fluid this step, as forces on them (the negative
+    // of the impulse each wall gave the fluid, over dt), summed in fixed chunks in order:
+    // - the mirror pairs' pressure: m (kappa_i + kappa_j) V grad W_ij' with kappa the step's
+    //   total (divergence and density solves);
+    // - the mirror pairs' viscous terms (mGhostViscous);
+    // - the no-penetration limiter below.
+    // obstacleForce is that exchange exactly (what moves a rigid body: action = reaction);
+    // reportedObstacleForce takes a shortened step's pressure from the last regular step
+    // (as the particles' pressure above), for probes.
+    // No penetration: the solves only resist compression, so a particle of the
+    // (under-dense) free surface could creep into a wall. Its normal velocity towards
+    // each wall it mirrors across (single reflections: trace 1), relative to the wall, is
+    // limited so that it stays at least a quarter spacing off the wall.
     const Real mass = c.constants.particleMass;
+    const Real minDistance = Real(0.25) * c.settings.fluid.spacing;
+    const std::vector<std::uint32_t>& mapOffsets = c.boundary.mirrorOffsets();
     constexpr std::size_t kLayerChunk = 256;
     const std::size_t chunks = (layer.size() + kLayerChunk - 1) / kLayerChunk;
-    std::vector<Vec3d> chunkForce(chunks * boundaryCount, Vec3d::Zero());
-    std::vector<Vec3d> chunkMoment(chunks * boundaryCount, Vec3d::Zero());
+    const std::size_t stride = 3 * std::max<std::size_t>(boundaryCount, 1);  // force, reported, moment
+    std::vector<Vec3d> chunkSums(chunks * stride, Vec3d::Zero());
     tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t chunk) {
-      Vec3d* force = chunkForce.data() + chunk * boundaryCount;
-      Vec3d* moment = chunkMoment.data() + chunk * boundaryCount;
+      Vec3d* force = chunkSums.data() + chunk * stride;
+      Vec3d* reported = force + boundaryCount;
+      Vec3d* moment = reported + boundaryCount;
       const std::size_t end = std::min(layer.size(), (chunk + 1) * kLayerChunk);
       for (std::size_t k = chunk * kLayerChunk; k < end; ++k) {
         const std::uint32_t i = layer[k];
-        const Real ki = reportedDensityKappa[i] + reportedDivergenceKappa[i];
         const Vec3r xi = particles.position[i];
-        for (std::uint32_t g = mGhostOffsets[k]; g < mGhostOffsets[k + 1]; ++g) {
-          const std::uint32_t j = mGhostSource[g];
-          const MirrorMap& map = maps[mGhostMap[g]];
-          const std::uint32_t owner = map.boundary;
-          if (owner >= boundaryCount) continue;
-          const Real kj = reportedDensityKappa[j] + reportedDivergenceKappa[j];
-          const Vec3d f = (mass * (ki + kj) * mGhostGradient[g]).cast<double>();
-          force[owner] += f;
-          // acting where the map's plane is (halfway to i's own image)
-          moment[owner] += (Real(0.5) * (xi + map.apply(xi))).cast<double>().cross(f);
+        const Real ki = mDensityKappa[i] + mDivergenceKappa[i];
+        const Real reportedKi = reportedDensityKappa[i] + reportedDivergenceKappa[i];
+        if (boundaryCount > 0 && !mGhostSource.empty())
+          for (std::uint32_t g = mGhostOffsets[k]; g < mGhostOffsets[k + 1]; ++g) {
+            const std::uint32_t j = mGhostSource[g];
+            const MirrorMap& map = maps[mGhostMap[g]];
+            const std::uint32_t owner = map.boundary;
+            if (owner >= boundaryCount) continue;
+            const Vec3r viscous = mass * mGhostViscous[g];
+            const Vec3d f = (mass * (ki + mDensityKappa[j] + mDivergenceKappa[j]) * mGhostGradient[g] - viscous).cast<double>();
+            force[owner] += f;
+            reported[owner] += (mass * (reportedKi + reportedDensityKappa[j] + reportedDivergenceKappa[j]) * mGhostGradient[g] -
+                                viscous).cast<double>();
+            // acting where the map's plane is (halfway to i's own image)
+            moment[owner] += (Real(0.5) * (xi + map.apply(xi))).cast<double>().cross(f);
+          }
+        for (std::uint32_t m = mapOffsets[i]; m < mapOffsets[i + 1]; ++m) {
+          const MirrorMap& map = maps[m];
+          if (std::abs(map.linear.trace() - Real(1)) > Real(1e-3)) continue;
+          const Vec3r toImage = xi - map.apply(xi);  // 2 d n
+          const Real twice = toImage.norm();
+          if (!(twice > Real(0))) continue;
+          const Vec3r normal = toImage / twice;
+          const Real distance = Real(0.5) * twice;
+          const Real wallSpeed = map.wallVelocity.dot(normal);  // a moving wall's, along the normal
+          const Real normalSpeed = velocity[i].dot(normal) - wallSpeed;
+          const Real limit = (minDistance - distance) / dt;  // speed that lands on minDistance
+          if (!(normalSpeed < limit)) continue;
+          const Vec3r change = (std::min(limit, Real(0)) - normalSpeed) * normal;
+          velocity[i] += change;
+          if (map.boundary >= boundaryCount) continue;
+          const Vec3d f = (-(mass / dt) * change).cast<double>();
+          force[map.boundary] += f;
+          reported[map.boundary] += f;
+          moment[map.boundary] += (Real(0.5) * (xi + map.apply(xi))).cast<double>().cross(f);
         }
       }
     });
     for (std::size_t chunk = 0; chunk < chunks; ++chunk)
       for (std::size_t b = 0; b < boundaryCount; ++b) {
-        c.obstacleForce[b] += chunkForce[chunk * boundaryCount + b];
-        c.obstacleMoment[b] += chunkMoment[chunk * boundaryCount + b];
+        const Vec3d* sums = chunkSums.data() + chunk * stride;
+        c.obstacleForce[b] += sums[b];
+        c.reportedObstacleForce[b] += sums[boundaryCount + b];
+        c.obstacleMoment[b] += sums[2 * boundaryCount + b];
       }
   }
   c.timings.boundary += millisecondsSince(start);
-
   start = Clock::now();
-  if (!layer.empty() && !maps.empty()) {
-    // No penetration: the solves only resist compression, so a particle of the
-    // (under-dense) free surface could creep into a wall. Its normal velocity
-    // towards each wall it mirrors across (single reflections: trace 1) is
-    // limited so that it stays at least a quarter spacing off the wall.
-    const Real minDistance = Real(0.25) * c.settings.fluid.spacing;
-    const std::vector<std::uint32_t>& mapOffsets = c.boundary.mirrorOffsets();
-    tbb::parallel_for(std::size_t(0), layer.size(), [&](std::size_t k) {
-      const std::uint32_t i = layer[k];
-      const Vec3r xi = particles.position[i];
-      for (std::uint32_t m = mapOffsets[i]; m < mapOffsets[i + 1]; ++m) {
-        const MirrorMap& map = maps[m];
-        if (std::abs(map.linear.trace() - Real(1)) > Real(1e-3)) continue;
-        const Vec3r toImage = xi - map.apply(xi);  // 2 d n
-        const Real twice = toImage.norm();
-        if (!(twice > Real(0))) continue;
-        const Vec3r normal = toImage / twice;
-        const Real distance = Real(0.5) * twice;
-        const Real wallSpeed = map.wallVelocity.dot(normal);  // a moving wall's, along the normal
-        const Real normalSpeed = velocity[i].dot(normal) - wallSpeed;
-        const Real limit = (minDistance - distance) / dt;  // speed that lands on minDistance
-        if (normalSpeed < limit) velocity[i] += (std::min(limit, Real(0)) - normalSpeed) * normal;
-      }
-    });
-  }
   {
     const Real restDensity = c.settings.fluid.restDensity;
     forEachParticle(n, [&](std::size_t i) {

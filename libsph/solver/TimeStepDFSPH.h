@@ -163,6 +163,7 @@ private:
   // Per layer particle: sum over its ghosts of w_g . G_g, the part of the images' velocity
   // that a moving wall adds (w_g = (I - L) w free slip, 2 w no slip; 0 for walls at rest).
   std::vector<Real> mWallRate;
+  std::vector<Vec3r> mGhostViscous;  // the viscous acceleration each ghost gives its particle (a wall force)
   // Rest volume of one particle: 1 / (sum of W over the initial lattice).
   Real mRestVolume = 0, mFactorFloor = 0, mLatticeSupport = 0;
   Statistics mStatistics;

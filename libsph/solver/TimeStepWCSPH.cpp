@@ -813,6 +813,7 @@ void TimeStepWCSPH::advance(StepContext& c, Real dt) {
   wcsph::addBoundaryAcceleration(c, mWorkspace, dt);
   c.timings.boundary += millisecondsSince(start);
 
+  std::copy(c.obstacleForce.begin(), c.obstacleForce.end(), c.reportedObstacleForce.begin());
   start = Clock::now();
   c.maxAcceleration = wcsph::integrateSymplecticEuler(c, dt);
   c.timings.integrate += millisecondsSince(start);
