@@ -21,5 +21,6 @@ BenchTable benchStep();       ///< bench_step.cpp (issue 3)
 BenchTable benchAccuracy();   ///< bench_accuracy.cpp (issue 7)
 BenchTable benchSurface();    ///< bench_surface.cpp (issue 5)
 BenchTable benchRender();     ///< bench_render.cpp (issue 6)
+BenchTable benchBodies();     ///< bench_bodies.cpp (issue 16)
 
 } // namespace cascade::cli
