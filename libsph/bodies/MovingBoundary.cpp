@@ -1,6 +1,7 @@
 #include "libsph/bodies/MovingBoundary.h"
 
 #include "libsph/Errors.h"
+#include "libsph/io/BinaryPod.h"
 
 #include <algorithm>
 #include <cmath>
@@ -25,15 +26,6 @@ std::vector<Vec3d> hullOf(const Boundary& reference) {
   return hull;
 }
 
-template <typename T>
-void writeValue(std::ostream& out, const T& value) {
-  out.write(reinterpret_cast<const char*>(&value), sizeof(T));
-}
-template <typename T>
-void readValue(std::istream& in, T& value) {
-  in.read(reinterpret_cast<char*>(&value), sizeof(T));
-  if (!in) throw InputError("checkpoint: truncated moving solid state");
-}
 } // namespace
 
 MovingBoundary::MovingBoundary(BoundaryPtr reference, KinematicMotion motion)
@@ -163,25 +155,24 @@ void MovingBoundary::bounds(Vec3r& lo, Vec3r& hi) const {
   }
 }
 
+template <typename F>
+void MovingBoundary::forEachStateValue(F&& visit) {
+  visit(mPose.rotation);
+  visit(mPose.translation);
+  visit(mPreviousPose.rotation);
+  visit(mPreviousPose.translation);
+  visit(mVelocity.linear);
+  visit(mVelocity.angular);
+  visit(mVelocity.center);
+}
+
 void MovingBoundary::save(std::ostream& out) const {
-  writeValue(out, mPose.rotation);
-  writeValue(out, mPose.translation);
-  writeValue(out, mPreviousPose.rotation);
-  writeValue(out, mPreviousPose.translation);
-  writeValue(out, mVelocity.linear);
-  writeValue(out, mVelocity.angular);
-  writeValue(out, mVelocity.center);
+  const_cast<MovingBoundary*>(this)->forEachStateValue([&](const auto& value) { writePodValue(out, value); });
   if (mBody) mBody->save(out);
 }
 
 void MovingBoundary::restore(std::istream& in) {
-  readValue(in, mPose.rotation);
-  readValue(in, mPose.translation);
-  readValue(in, mPreviousPose.rotation);
-  readValue(in, mPreviousPose.translation);
-  readValue(in, mVelocity.linear);
-  readValue(in, mVelocity.angular);
-  readValue(in, mVelocity.center);
+  forEachStateValue([&](auto& value) { readPodValue(in, value, "moving solid state"); });
   if (mBody) mBody->restore(in);
 }
 

@@ -79,6 +79,9 @@ public:
 
 private:
   void setPose(const RigidPose& pose, const RigidVelocity& velocity);
+  /// Calls visit(value) for each value of the state a checkpoint keeps, in order.
+  template <typename F>
+  void forEachStateValue(F&& visit);
   BoundaryPtr mReference;
   std::optional<KinematicMotion> mMotion;
   std::optional<RigidBody> mBody;

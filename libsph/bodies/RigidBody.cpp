@@ -1,6 +1,6 @@
 #include "libsph/bodies/RigidBody.h"
 
-#include "libsph/Errors.h"
+#include "libsph/io/BinaryPod.h"
 
 #include <algorithm>
 #include <cmath>
@@ -102,32 +102,21 @@ void RigidBody::resolveContacts(const std::vector<RigidContact>& contacts) {
     }
 }
 
-namespace {
-template <typename T>
-void writeValue(std::ostream& out, const T& value) {
-  out.write(reinterpret_cast<const char*>(&value), sizeof(T));
-}
-template <typename T>
-void readValue(std::istream& in, T& value) {
-  in.read(reinterpret_cast<char*>(&value), sizeof(T));
-  if (!in) throw InputError("checkpoint: truncated rigid body state");
-}
-} // namespace
 
 void RigidBody::save(std::ostream& out) const {
-  writeValue(out, mCenter);
-  writeValue(out, mOrientation.coeffs().eval());
-  writeValue(out, mVelocity);
-  writeValue(out, mAngularVelocity);
+  writePodValue(out, mCenter);
+  writePodValue(out, Eigen::Vector4d(mOrientation.coeffs()));
+  writePodValue(out, mVelocity);
+  writePodValue(out, mAngularVelocity);
 }
 
 void RigidBody::restore(std::istream& in) {
   Eigen::Vector4d coefficients;
-  readValue(in, mCenter);
-  readValue(in, coefficients);
+  readPodValue(in, mCenter, "rigid body state");
+  readPodValue(in, coefficients, "rigid body state");
   mOrientation.coeffs() = coefficients;
-  readValue(in, mVelocity);
-  readValue(in, mAngularVelocity);
+  readPodValue(in, mVelocity, "rigid body state");
+  readPodValue(in, mAngularVelocity, "rigid body state");
 }
 
 } // namespace cascade

@@ -8,6 +8,7 @@
 #include "libsph/boundary/PlaneBoundary.h"
 #include "libsph/scene/FluidSources.h"
 #include "libsph/solver/TimeStepDFSPH.h"
+#include "libsph/solver/TimeStepWCSPH.h"
 
 #include <Eigen/Geometry>
 
@@ -282,10 +283,12 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
     *log << "warning: a fluid block stacks " << layers << " particle layers; beyond about " << kDfsphStillWaterLayers
          << " DFSPH does not hold resting water still (README, Solvers and their limits): use solver.type=wcsph "
             "or a coarser fluid.spacing\n";
-  if (log && scene.solver.type == "dfsph" && scene.solver.cfl > double(kDfsphMaxCfl))
-    *log << "warning: solver.cfl " << scene.solver.cfl << " is above the " << kDfsphMaxCfl
-         << " DFSPH holds (faster steps carry particles into obstacles; README, Solvers and their limits): steps use "
-         << kDfsphMaxCfl << "\n";
+  const Real cap = scene.solver.type == "dfsph" ? kDfsphMaxCfl : kWcsphMaxCfl;
+  if (log && scene.solver.cfl > double(cap))
+    *log << "warning: solver.cfl " << scene.solver.cfl << " is above the " << cap << " " << scene.solver.type
+         << " holds (faster steps carry particles into obstacles or gain energy; README, Solvers and their limits): "
+            "steps use "
+         << cap << "\n";
 }
 
 int deepestFluidLayers(const Scene& scene) {

@@ -8,6 +8,7 @@
 #include "libsph/probes/Probes.h"
 #include "libsph/solver/Simulation.h"
 #include "libsph/solver/TimeStepDFSPH.h"
+#include "libsph/solver/TimeStepWCSPH.h"
 
 #include <gtest/gtest.h>
 
@@ -162,7 +163,9 @@ TEST(DFSPH, CflFactorAboveTheCapGivesTheCappedStep) {
   EXPECT_NEAR(firstStep("dfsph", Real(0.3)), 0.3 * h / speed, 1e-9);
   EXPECT_NEAR(firstStep("dfsph", kDfsphMaxCfl), double(kDfsphMaxCfl) * h / speed, 1e-9);
   EXPECT_NEAR(firstStep("dfsph", Real(2)), double(kDfsphMaxCfl) * h / speed, 1e-9);
-  EXPECT_NEAR(firstStep("wcsph", Real(2)) / firstStep("wcsph", Real(0.5)), 4.0, 1e-6);
+  // WCSPH: its own cap (kWcsphMaxCfl), below it the factor as given
+  EXPECT_NEAR(firstStep("wcsph", Real(0.6)) / firstStep("wcsph", Real(0.3)), 2.0, 1e-6);
+  EXPECT_NEAR(firstStep("wcsph", Real(2)) / firstStep("wcsph", Real(0.3)), double(kWcsphMaxCfl) / 0.3, 1e-6);
 }
 
 // Frames and probes land on steps the Simulation shortens (advanceTo). Such a step

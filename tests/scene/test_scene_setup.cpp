@@ -6,6 +6,7 @@
 #include "libsph/scene/FluidSources.h"
 #include "libsph/scene/SceneSetup.h"
 #include "libsph/solver/TimeStepDFSPH.h"
+#include "libsph/solver/TimeStepWCSPH.h"
 
 #include <gtest/gtest.h>
 
@@ -67,15 +68,17 @@ TEST(SceneSetup, WarnsWhenDfsphWaterIsDeeperThanItHoldsStill) {
   EXPECT_EQ(setUpLog(column(0.01 * (limit + 10), "wcsph")).find("warning"), std::string::npos);
 }
 
-TEST(SceneSetup, WarnsWhenADfsphCflFactorIsAboveItsCap) {
+TEST(SceneSetup, WarnsWhenACflFactorIsAboveItsSolversCap) {
   Scene scene = column(0.1, "dfsph");
   scene.solver.cfl = 1.0;
   const std::string log = setUpLog(scene);
-  EXPECT_NE(log.find("warning: solver.cfl 1 is above the 0.5 DFSPH holds"), std::string::npos) << log;
+  EXPECT_NE(log.find("warning: solver.cfl 1 is above the 0.5 dfsph holds"), std::string::npos) << log;
   scene.solver.cfl = double(kDfsphMaxCfl);
   EXPECT_EQ(setUpLog(scene).find("warning"), std::string::npos);
   scene.solver.type = "wcsph";
   scene.solver.cfl = 1.0;
+  EXPECT_NE(setUpLog(scene).find("warning: solver.cfl 1 is above the 0.6 wcsph holds"), std::string::npos);
+  scene.solver.cfl = double(kWcsphMaxCfl);
   EXPECT_EQ(setUpLog(scene).find("warning"), std::string::npos);
 }
 
