@@ -2,6 +2,7 @@
 // frame (or stopped with SIGINT) and started again with the same command
 // ends with the same particles as one never stopped; run skips an unchanged
 // bake; an unstable bake exits 3; bad scenes exit 2 and damage nothing.
+#include "CascadeProcess.h"
 #include "TestTempDir.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/OutputLayout.h"
@@ -22,6 +23,7 @@
 #include <vector>
 
 using namespace cascade;
+using namespace cascade::test;
 namespace fs = std::filesystem;
 
 namespace {
@@ -35,44 +37,6 @@ fs::path freshDir(const std::string& name) {
   const fs::path dir = base / name;
   fs::remove_all(dir);
   return dir;
-}
-
-/// Starts `cascade args...` with stdout/stderr to `log`; returns the pid.
-pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (fd >= 0) {
-      ::dup2(fd, 1);
-      ::dup2(fd, 2);
-    }
-    std::vector<char*> argv;
-    std::vector<std::string> copy = args;
-    std::string program = kCascade;
-    argv.push_back(program.data());
-    for (std::string& a : copy) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    ::execv(kCascade.c_str(), argv.data());
-    std::_Exit(127);
-  }
-  return pid;
-}
-
-int waitFor(pid_t pid) {
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  if (WIFEXITED(status)) return WEXITSTATUS(status);
-  return 128 + WTERMSIG(status);
-}
-
-int run(const std::vector<std::string>& args, const fs::path& log) { return waitFor(spawn(args, log)); }
-
-std::string readLog(const fs::path& log) {
-  try {
-    return readTextFile(log);
-  } catch (...) {
-    return "";
-  }
 }
 
 /// A small dam break: about 1,000 particles, 12 frames of 1/60 s.

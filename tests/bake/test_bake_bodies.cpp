@@ -2,6 +2,7 @@
 // SIGKILL mid-frame and resumed, ends with the same particles, body probe rows
 // and per-frame solids as a bake never stopped; bad moving-solid input exits 2
 // with one line naming the file and the JSON path.
+#include "CascadeProcess.h"
 #include "TestTempDir.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/OutputLayout.h"
@@ -23,6 +24,7 @@
 #include <vector>
 
 using namespace cascade;
+using namespace cascade::test;
 namespace fs = std::filesystem;
 
 namespace {
@@ -32,39 +34,6 @@ const std::string kAssets = std::string(CASCADE_SOURCE_DIR) + "/scenes/assets";
 const fs::path& scratch() {
   static const fs::path base = cascade::test::freshTempDir("bake_bodies");
   return base;
-}
-
-pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (fd >= 0) {
-      ::dup2(fd, 1);
-      ::dup2(fd, 2);
-    }
-    std::vector<std::string> copy = args;
-    std::string program = kCascade;
-    std::vector<char*> argv{program.data()};
-    for (std::string& a : copy) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    ::execv(kCascade.c_str(), argv.data());
-    std::_Exit(127);
-  }
-  return pid;
-}
-
-int waitFor(pid_t pid) {
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-}
-
-std::string readLog(const fs::path& log) {
-  try {
-    return readTextFile(log);
-  } catch (...) {
-    return "";
-  }
 }
 
 /// A 0.1 m crate of density 600 dropped from 5 cm above a pool 0.12 m deep (DFSPH,
