@@ -1,11 +1,14 @@
 // Validation of two-way coupling (issue 16), for both solvers:
-// - Archimedes: closed cubes of density 500 and 800 released at the surface of
-//   still water come to rest at a draft of rho_body / rho_water x edge;
+// - a cube held still at its draft carries the weight of the water it displaces;
+// - Archimedes: closed cubes of density 500 and 800 (and a raft) released at the
+//   surface of still water come to rest at a draft of rho_body / rho_water x height;
 // - a solid held still by a keyframe gives the fluid the same result as the
 //   same static obstacle;
-// - action and reaction: the impulse a dropped body receives from the fluid is
-//   minus the impulse the fluid receives from it;
-// - a bake with a body restored from a checkpoint continues bit for bit.
+// - action and reaction: the impulse a thrown body receives from the fluid is
+//   minus the impulse the fluid receives from it.
+// (Exact restarts with a body: tests/bake/test_bake_bodies.cpp.) For studies, the
+// floating cases read CASCADE_FLOAT_SPACING, _EDGE, _SIDE, _DEPTH, _TIME, _DENSITY
+// (held cube) and _NO_REPULSION; CASCADE_TEST_VERBOSE prints the time series.
 #include "BodyTestScenes.h"
 
 #include "libsph/probes/Probes.h"
