@@ -4,6 +4,7 @@
 #include "libsph/Kernels.h"
 #include "libsph/bodies/MovingBoundary.h"
 #include "libsph/io/AtomicFile.h"
+#include "libsph/io/BinaryPod.h"
 #include "libsph/search/MortonCode.h"
 
 #include <tbb/blocked_range.h>
@@ -76,12 +77,11 @@ constexpr char kMagic[8] = {'C', 'S', 'C', 'D', 'S', 'I', 'M', '2'};  // 2: movi
 
 template <typename T>
 void writePod(std::ostream& out, const T& value) {
-  out.write(reinterpret_cast<const char*>(&value), sizeof(T));
+  writePodValue(out, value);
 }
 template <typename T>
 void readPod(std::istream& in, T& value) {
-  in.read(reinterpret_cast<char*>(&value), sizeof(T));
-  if (!in) throw InputError("checkpoint: truncated data");
+  readPodValue(in, value, "data");
 }
 template <typename T>
 void writeArray(std::ostream& out, const std::vector<T>& values) {
@@ -254,11 +254,12 @@ void Simulation::start() {
       for (const BoundaryPtr& b : mBoundaries) {
         Vec3r lo, hi;
         b->bounds(lo, hi);
+        const auto* moving = dynamic_cast<const MovingBoundary*>(b.get());
+        const bool body = moving && moving->isDynamic();  // a body dropped from above the water falls too
         for (int corner = 0; corner < 8; ++corner) {
           const Vec3r c((corner & 1) ? hi.x() : lo.x(), (corner & 2) ? hi.y() : lo.y(), (corner & 4) ? hi.z() : lo.z());
           bottom = std::min(bottom, c.dot(up));
-          const auto* moving = dynamic_cast<const MovingBoundary*>(b.get());
-          if (moving && moving->isDynamic()) top = std::max(top, c.dot(up));  // a body dropped from above the water
+          if (body) top = std::max(top, c.dot(up));
         }
       }
       fall = std::sqrt(Real(2) * g * std::max(Real(0), top - bottom));
