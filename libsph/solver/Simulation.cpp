@@ -320,6 +320,7 @@ double Simulation::computeTimeStep() const {
   // acceleration is known; a 5 ms first step launched a resting 72-layer DFSPH column).
   const double maxAcceleration = std::max(double(mLastMaxAcceleration), double(solver.gravity.norm()));
   if (maxAcceleration > 0) dt = std::min(dt, forceFactor * std::sqrt(h / maxAcceleration));
+  dt = std::min(dt, mTimeStep->maxTimeStep(mConstants));  // the method's own bound (DFSPH: its stiffness)
   // Boundary layer resolution (weakly compressible strategies with type I particles):
   // no particle may cross more than half the repulsion radius r0 of SEED (11) in one
   // step, or it jumps over the repulsion layer and through the wall. With the default

@@ -95,8 +95,8 @@ public:
   virtual std::string name() const = 0;
   /// Computes forces and advances velocities and positions by dt.
   virtual void advance(StepContext& context, Real dt) = 0;
-  /// An extra upper bound on dt the method needs (infinity if none).
-  virtual Real timeStepLimit(const StepContext&) const { return std::numeric_limits<Real>::infinity(); }
+  /// An extra upper bound on the next dt from the method's own state, s (infinity if none).
+  virtual double maxTimeStep(const DerivedConstants&) const { return std::numeric_limits<double>::infinity(); }
 
   // Per-particle state a strategy keeps (e.g. warm starts) follows the particles:
   virtual void permute(const std::vector<std::size_t>& /*order*/) {}

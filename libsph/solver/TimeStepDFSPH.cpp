@@ -4,6 +4,8 @@
 #include "libsph/Kernels.h"
 #include "libsph/boundary/BoundaryParticles.h"
 #include "libsph/boundary/WallShearStress.h"
+#include "libsph/solver/BoundConstrainedCG.h"
+#include "libsph/solver/ParallelSum.h"
 
 #if (defined(__x86_64__) || defined(__i386__)) && !defined(CASCADE_DOUBLE) && \
     (defined(__GNUC__) || defined(__clang__))
@@ -34,25 +36,33 @@ double millisecondsSince(Clock::time_point start) {
 }
 
 constexpr Real kDivergenceWarmStart = Real(0.5);  // divergence solve: half the last stiffness (SPlisHSPlasH)
-constexpr Real kDensityWarmStart = Real(0.5);     // constant-density solve: half as well (1 oscillates, measured)
-constexpr int kMinDensityIterations = 1;          // sweeps after the warm start
-// Constant-density sweeps (issue 7): kappa_i += omega r_i alpha_i / dt^2 + beta (the last
-// sweep's increment of i). With omega = 1 and no momentum (B&K 2017, SPlisHSPlasH) a sweep
-// overshoots (every neighbour corrects the same error at once) and a compression-only
-// solve cannot take an overshoot back: each step left kicks in the velocities, and a
-// resting 36-layer column's floor pressure swung by +-45 % of rho g H from step to step
-// (measured; 72 layers: +-60 %, largest compression 1.6-2.8 %). omega < 1 alone quiets
-// it but rebuilds the pressure the half warm start leaves out by diffusion (62 sweeps a
-// step at 36 layers, over 100 at 72); the momentum term (Polyak's heavy ball, 1964)
-// carries that slow, deep part. Measured on the 36-layer column: omega + beta <= 1.2 is
-// quiet, 1.3 (0.8 + 0.5) or beta = 0.6 rings again. With the exact diagonal
-// (imageCouplings; eq. 10 alone overstated alpha_i near walls by up to 1.57 x, a larger
-// step there) the sweeps take 30 a step where they took 24 (bench dam break and tank at
-// a/27). omega 0.7 takes 23, but the bench tank's floor pressure is then 4.2 % off at
-// a/18 (0.44 % at 0.6), and 0.7 with beta 0.45 or 0.65 with 0.5 saves only 2 sweeps
-// (0.65: the 36-layer column's floor pressure 2.7 % off): 0.6 stays.
-constexpr Real kDensityRelaxation = Real(0.6);  // omega
-constexpr Real kDensityMomentum = Real(0.5);    // beta
+// Constant-density solve (issue 19): the primal-dual active set method with CG on the
+// free set (BoundConstrainedCG.h), from the whole stiffness of the last step (the solve may
+// lower it: an overshoot is taken back, so no half warm start is needed). It stops when the
+// mean predicted compression is below the tolerance and every particle's residual below
+// kMaxResidualShare of it. The mean alone is diluted by depth: a missing share f of the
+// hydrostatic support of an L-layer column shows only in the floor layer, as a residual of
+// f g dt^2 / spacing there and 1/L of that on average; relaxed Jacobi sweeps that stopped on
+// the mean left a resting column unsupported beyond about 80 layers (issue 7). Measured on
+// a resting 200-layer column (12 x 4 particles across, a/18 spacing): with the largest
+// residual held to 1e-5 (0.02 x 0.05 %) the floor pressure reads 0.99-1.00 rho g H with a
+// step-to-step spread of 0.05 after 0.3 s, in 70-80 products a step; at 1e-4 the spread is
+// 0.3-0.4 and the solve takes 85-100 products, at 5e-4 0.9 and 160-190 (a loose stop leaves
+// noise the next steps must solve), without the bound the column bounces (spread 2-3).
+constexpr double kMaxResidualShare = 0.02;
+// Time-step bound from the stiffness: dt <= kStiffnessStepFactor h / sqrt(kappa_max).
+// A particle next to a wall and its own mirror image carry the same stiffness kappa, so
+// the pair's repulsion acts on the particle's distance to the wall as a spring of
+// stiffness ~ kappa V W''(2d), applied explicitly (the solve fixes kappa, not its
+// derivative with position): beyond omega dt = 2 the wall layer oscillates with a
+// growing, alternating amplitude. kappa grows with depth (rho g H at the floor), which
+// is why resting DFSPH water came apart beyond about 80 layers: measured on the
+// 200-layer column (kappa_max = 6.2 m^2/s^2, h = 6.35 mm), the floor-corner particles'
+// speed grew 7-fold a step at dt = 1.5 ms, the column still bounced at 0.8 ms (factor
+// 0.31) and rested at 0.5 ms (0.20). sqrt(kappa) is the speed of a pressure signal,
+// so this is a CFL condition on it; in flowing water (v ~ sqrt(g H)) the velocity CFL
+// binds first.
+constexpr double kStiffnessStepFactor = 0.2;
 // The constant-density solve stops at this share of densityTolerance: the compression
 // measured at the next step exceeds the solve's linear prediction (particles moved,
 // neighbourhoods changed) by up to 4 %, measured (bench tank: 0.0500-0.0502 % at a
@@ -61,33 +71,16 @@ constexpr double kDensityToleranceMargin = 0.9;
 // A step removes at most this much of a compression already there (particles
 // started overlapping, or pushed together by an external impulse): they part
 // over several steps instead of at error * spacing / dt.
-constexpr Real kMaxErrorPerStep = Real(0.02);         // SPlisHSPlasH's minimum for the constant-density solve
+// Measured on the stress suite's overlapping lattices (twice the rest density): with the
+// exact bound-constrained solve, 2 % a step (SPlisHSPlasH's minimum) gave them 2.38 J of
+// kinetic energy, above the 1.78 J the case can release; 1 % gives 0.63 J.
+constexpr Real kMaxErrorPerStep = Real(0.01);
 constexpr std::uint32_t kMinDivergenceNeighbors = 20;  // B&K 2017: no divergence solve at the surface
-constexpr std::size_t kChunk = 1024;
-constexpr std::uint32_t kNotInLayer = ~std::uint32_t(0);             // fixed chunks: order-independent (deterministic) sums
-
-/// Sum over [0, n) of f(i) in double, in fixed chunks added in order (the
-/// same result whatever the thread schedule: resumed bakes stay bit-identical).
-template <typename F>
-double deterministicSum(std::size_t n, F&& f) {
-  const std::size_t chunks = (n + kChunk - 1) / kChunk;
-  std::vector<double> partial(chunks, 0.0);
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
-    double sum = 0;
-    const std::size_t end = std::min(n, (c + 1) * kChunk);
-    for (std::size_t i = c * kChunk; i < end; ++i) sum += f(i);
-    partial[c] = sum;
-  });
-  double total = 0;
-  for (double p : partial) total += p;
-  return total;
-}
+constexpr std::uint32_t kNotInLayer = ~std::uint32_t(0);
 
 template <typename F>
 void forEachParticle(std::size_t n, F&& f) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) f(i);
-  });
+  forEachIndex(n, f);
 }
 
 template <typename T>
@@ -432,7 +425,6 @@ void TimeStepDFSPH::prepare(StepContext& c) {
   mDensityRatio.resize(n);
   mNeighborCount.resize(n);
   mRate.resize(n);
-  mGravityRate.resize(n);
   c.acceleration.resize(n);
   const Real selfValue = kernel.value(0);
   const Real restDensity = c.settings.fluid.restDensity;
@@ -506,7 +498,6 @@ void TimeStepDFSPH::prepare(StepContext& c) {
     }
     mPairCount[i] = stored;
     Real denominator;
-    Real gravityRate = 0;
     const std::uint32_t l = mLayerIndex[i];
     if (l == kNotInLayer) {
       denominator = gradientSum.squaredNorm() + gradientSquares;  // B&K 2017 eq. 10
@@ -532,7 +523,6 @@ void TimeStepDFSPH::prepare(StepContext& c) {
           images.push_back(ImageSums{j, mGhostVelocityGradient[g], maps[mGhostMap[g]].linear * G});
         }
         rate += velocity[j].dot(mGhostVelocityGradient[g]);
-        gravityRate += gravity.dot(G - mGhostVelocityGradient[g]);
         // Mirror particles in the viscous terms with the image's velocity (L v_j; -v_j for no
         // slip): a no-slip wall exerts friction and any wall damps approaching motion.
         const Vec3r& x = mGhostOffset[g];
@@ -554,7 +544,6 @@ void TimeStepDFSPH::prepare(StepContext& c) {
     }
     mGradientSum[i] = gradientSum;  // over fluid and mirror neighbours
     mRate[i] = vi.dot(gradientSum) - rate;  // D(rho_i/rho_0)/Dt of the step's initial velocities
-    mGravityRate[i] = gravityRate;          // the part of D/Dt (D(rho_i/rho_0)/Dt) due to gravity (mirrors only)
     acceleration[i] = gravity + viscous;
     mFactor[i] = denominator > floor ? Real(1) / denominator : Real(0);
     mDensityRatio[i] = density;
@@ -633,13 +622,19 @@ Real TimeStepDFSPH::operatorEntry(std::size_t i, std::size_t j) const {
   step[j] = Real(1);
   std::vector<Vec3r> change(n);
   for (std::size_t k = 0; k < n; ++k) change[k] = velocityChange(step.data(), k);
-  return densityRate(change, i);
+  return divergence(change, i);
 }
 
 /// D(rho_i / rho_0)/Dt = sum_j V (v_i - v_j) . grad W_ij = v_i . G_i - sum_j v_j . V grad W_ij
 /// over fluid and mirror neighbours (a mirror moves with its source, its velocity mirrored
-/// (free slip) or reversed (no slip)).
+/// (free slip) or reversed (no slip)), plus what a moving wall adds (mWallRate).
 Real TimeStepDFSPH::densityRate(const std::vector<Vec3r>& velocity, std::size_t i) const {
+  const std::uint32_t l = mLayerIndex[i];
+  return divergence(velocity, i) - (l != kNotInLayer ? mWallRate[l] : Real(0));
+}
+
+/// The linear part of densityRate(): the walls' own motion left out.
+Real TimeStepDFSPH::divergence(const std::vector<Vec3r>& velocity, std::size_t i) const {
   const PairTerm* pair = mPairs.data() + mPairOffsets[i];
   const std::uint32_t count = mPairCount[i];
   Real rate = 0;
@@ -651,9 +646,66 @@ Real TimeStepDFSPH::densityRate(const std::vector<Vec3r>& velocity, std::size_t 
   if (l != kNotInLayer) {
     for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g)
       rate += velocity[mGhostSource[g]].dot(mGhostVelocityGradient[g]);
-    rate += mWallRate[l];
   }
   return velocity[i].dot(mGradientSum[i]) - rate;
+}
+
+double TimeStepDFSPH::maxTimeStep(const DerivedConstants& constants) const {
+  Real largest = 0;
+  for (std::size_t i = 0; i < mDensityKappa.size(); ++i)
+    largest = std::max(largest, mDensityKappa[i] + (i < mDivergenceKappa.size() ? mDivergenceKappa[i] : Real(0)));
+  if (!(largest > 0)) return std::numeric_limits<double>::infinity();
+  return kStiffnessStepFactor * double(constants.supportRadius) / std::sqrt(double(largest));
+}
+
+/// The constant-density solve as the bound-constrained problem of BoundConstrainedCG.h in
+/// the stiffness kappa >= 0 (A = dt^2 D G: the density change per stiffness, D the density
+/// rate and G the velocity change of applyStep; b = the residual at kappa = 0), Jacobi-scaled
+/// with S_i = 1 / sqrt(A_ii) = sqrt(alpha_i) / dt (a particle with alpha_i = 0 is inert).
+/// Starts from kappa (the warm start: applied to the velocities first), leaves the solution
+/// in kappa and the velocities it gives.
+template <typename Residual>
+BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity, std::vector<Real>& kappa, Real dt,
+                                                    Residual&& residual, double tolerance, double maxResidual,
+                                                    int maxProducts) {
+  const std::size_t n = velocity.size();
+  std::vector<double>& S = mScaling;
+  S.resize(n);
+  mSolution.resize(n);
+  mGradient.resize(n);
+  mChange.resize(n);
+  const double scale = double(dt) * double(dt);
+  forEachParticle(n, [&](std::size_t i) {
+    S[i] = mFactor[i] > 0 ? std::sqrt(double(mFactor[i]) / scale) : 0.0;
+    mKappaStep[i] = S[i] > 0 ? std::max(kappa[i], Real(0)) : Real(0);
+    kappa[i] = 0;
+  });
+  applyStep(velocity, kappa, dt);
+  std::vector<double>& x = mSolution;
+  std::vector<double>& g = mGradient;
+  forEachParticle(n, [&](std::size_t i) {
+    x[i] = S[i] > 0 ? double(kappa[i]) / S[i] : 0.0;
+    g[i] = -S[i] * double(residual(i));
+  });
+  struct Problem {
+    TimeStepDFSPH& self;
+    const std::vector<double>& S;
+    double scale, tolerance, maxResidual;
+    void product(const std::vector<double>& p, std::vector<double>& out, double& pAp) {
+      const std::size_t count = p.size();
+      forEachParticle(count, [&](std::size_t i) { self.mKappaStep[i] = Real(S[i] * p[i]); });
+      forEachParticle(count, [&](std::size_t i) { self.mChange[i] = self.velocityChange(self.mKappaStep.data(), i); });
+      pAp = deterministicSum(count, [&](std::size_t i) {
+        out[i] = S[i] > 0 ? S[i] * scale * double(self.divergence(self.mChange, i)) : 0.0;
+        return p[i] * out[i];
+      });
+    }
+    double weight(std::size_t i) const { return S[i] > 0 ? 1.0 / S[i] : 0.0; }
+  } problem{*this, S, scale, tolerance, maxResidual};
+  const BoundConstrainedResult result = solveBoundConstrained(problem, x, g, maxProducts);
+  forEachParticle(n, [&](std::size_t i) { mKappaStep[i] = Real(S[i] * x[i]) - kappa[i]; });
+  applyStep(velocity, kappa, dt);
+  return result;
 }
 
 void TimeStepDFSPH::advance(StepContext& c, Real dt) {
@@ -747,44 +799,21 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   if (c.settings.boundary.slip == MirrorSlip::LaminarWallShear) applyWallShear(c, dt);
   c.timings.integrate += millisecondsSince(start);
 
-  // --- 4. constant-density solve (B&K 2017 alg. 3) ---
+  // --- 4. constant-density solve (B&K 2017 alg. 3, solved as a bound-constrained problem) ---
   start = Clock::now();
   {
-    const Real inverseDt2 = Real(1) / (dt * dt);
-    // Residual: predicted compression rho*/rho_0 - 1 = existing + dt D(rho/rho_0)/Dt, clamped at 0.
+    // Residual: predicted compression rho*/rho_0 - 1 = existing + dt D(rho/rho_0)/Dt.
     auto residual = [&](std::size_t i) -> Real {
       const Real existing = std::min(errorShare * (mDensityRatio[i] - Real(1)), kMaxErrorPerStep);
-      return std::max(existing + dt * densityRate(velocity, i), Real(0));
+      return existing + dt * densityRate(velocity, i);
     };
-    // Relaxed sweep with momentum (kDensityRelaxation): the increment of i's last sweep is
-    // still in mKappaStep[i] (none after the warm start). Both terms are >= 0: compression only.
-    Real momentum = 0;
-    auto sweep = [&](std::size_t i) -> double {
-      const Real r = residual(i);
-      mKappaStep[i] = kDensityRelaxation * r * mFactor[i] * inverseDt2 + momentum * mKappaStep[i];
-      return double(r);
-    };
-    // Warm start where the fluid would be compressed, estimated without a pass over the
-    // pairs: the rate after the divergence solve plus gravity's part of dt a (the viscous
-    // part is left out of this estimate only).
-    forEachParticle(n, [&](std::size_t i) {
-      const Real existing = std::min(errorShare * (mDensityRatio[i] - Real(1)), kMaxErrorPerStep);
-      const Real estimate = existing + dt * (mRate[i] + dt * mGravityRate[i]);
-      mKappaStep[i] = estimate > 0 ? kDensityWarmStart * mDensityKappa[i] : Real(0);
-      mDensityKappa[i] = 0;
-    });
-    applyStep(velocity, mDensityKappa, dt);
-    double error = deterministicSum(n, sweep);
-    momentum = kDensityMomentum;
-    const double tolerance = kDensityToleranceMargin * double(solver.densityTolerance) * double(n);
-    int iterations = 0;
-    while (iterations < maxIterations && (iterations < kMinDensityIterations || error > tolerance)) {
-      applyStep(velocity, mDensityKappa, dt);
-      error = deterministicSum(n, sweep);
-      ++iterations;
-    }
-    mStatistics.densityIterations = iterations;
-    mStatistics.densityError = error / double(n);
+    const double tolerance = kDensityToleranceMargin * double(solver.densityTolerance);
+    const BoundConstrainedResult result =
+        solveOneSided(velocity, mDensityKappa, dt, residual, tolerance * double(n), kMaxResidualShare * tolerance,
+                      maxIterations);
+    mStatistics.densityIterations = result.products;
+    mStatistics.densityError =
+        deterministicSum(n, [&](std::size_t i) { return double(std::max(residual(i), Real(0))); }) / double(n);
   }
   c.timings.forces += millisecondsSince(start);
 

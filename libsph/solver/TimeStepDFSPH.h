@@ -79,6 +79,7 @@
 /// surface, B&K 2017); sums are taken in fixed chunks (bit-identical restarts).
 #pragma once
 
+#include "libsph/solver/BoundConstrainedCG.h"
 #include "libsph/solver/TimeStep.h"
 
 #include <vector>
@@ -106,6 +107,8 @@ public:
   std::string name() const override { return "dfsph"; }
   TimeStepNeeds needs(const SimulationSettings& settings, const DerivedConstants& constants) const override;
   void advance(StepContext& context, Real dt) override;
+  /// kStiffnessStepFactor h / sqrt(kappa_max) over the stiffness of the last step (TimeStepDFSPH.cpp).
+  double maxTimeStep(const DerivedConstants& constants) const override;
 
   void permute(const std::vector<std::size_t>& order) override;
   void removeIf(const std::vector<char>& remove) override;
@@ -136,6 +139,10 @@ private:
   void applyWallShear(StepContext& context, Real dt);
   void applyStep(std::vector<Vec3r>& velocity, std::vector<Real>& kappa, Real dt);
   Real densityRate(const std::vector<Vec3r>& velocity, std::size_t i) const;
+  Real divergence(const std::vector<Vec3r>& velocity, std::size_t i) const;
+  template <typename Residual>
+  BoundConstrainedResult solveOneSided(std::vector<Vec3r>& velocity, std::vector<Real>& kappa, Real dt,
+                                       Residual&& residual, double tolerance, double maxResidual, int maxProducts);
   /// sum_j (s_i + s_j) V grad W_ij over fluid and mirror neighbours (the velocity change is -dt x this).
   Vec3r velocityChange(const Real* step, std::size_t i) const;
 
@@ -145,7 +152,9 @@ private:
   std::vector<Real> mWallAge;  // s each particle has been within one spacing of a wall (wall shear)
 
   // Per-step scratch.
-  std::vector<Real> mFactor, mKappaStep, mDensityRatio, mRate, mGravityRate;
+  std::vector<Real> mFactor, mKappaStep, mDensityRatio, mRate;
+  std::vector<double> mScaling, mSolution, mGradient;  // the constant-density solve's scaled problem
+  std::vector<Vec3r> mChange;                          // velocity change of a stiffness vector
   /// One neighbour j strictly inside the support and V grad W_ij (16 bytes: one stream for the solves).
   struct PairTerm {
     std::uint32_t neighbor;

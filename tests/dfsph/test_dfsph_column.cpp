@@ -96,21 +96,14 @@ TEST(DFSPHColumn, ThirtySixLayersHoldHydrostaticPressureStepByStep) {
   EXPECT_LT(r.rmsSpeed, 0.005 * std::sqrt(kStandardGravity * 36 * 0.003175));  // at rest (was 1.1 % of sqrt(g H))
 }
 #else
-// 72 layers (the bench tank at a/36), label long: the depth where the floor-pressure
-// error reached 5-7 % and the largest compression 2.8 % (bench, before the fix).
-// KNOWN FAILURE (issue 7, open), on the step-to-step spread only. Session 4: quiet at
-// 0.5 s (floor 1.010, spread 0.24, max 0.35 %) but by 0.8 s the column rang (floor 1.054,
-// spread 0.83, max 1.47 %, 1.5 cm/s) after solves that hit 100 sweeps. With the exact
-// diagonal, the 0.02 % divergence tolerance and up to 300 sweeps (63 a step on average):
-// floor 1.007, max 0.27 %, 4.1 mm/s, but a spread of 0.20: the relaxed sweeps stop on the
-// average compression with the deep (whole-column) mode still unconverged, and its
-// floor pressure varies by 20 % from step to step. Tried and measured, no better: full or
-// 0.7-0.9 warm starts (with or without sweeps that may lower the pressure), warm starts
-// from the lower of the last two steps, and a first trial of conjugate gradients on the
-// active set (it left local compressions of 1-5 %). Session 6 measured five more at
-// 36 / 72 / 108 layers (a largest-compression stop, a partial existing-error share, a
-// Galerkin correction, and two conjugate-gradient solves): none held all three depths;
-// figures in the issue 7 note, the limit in kDfsphStillWaterLayers.
+// 72 layers (the bench tank at a/36) and 200 (a pool a body falls into; issue 19's target:
+// at rest after 2 s, RMS speed below 1 % of sqrt(g H), floor pressure within 1 % of
+// rho g H), label long. Until issue 19 both failed: relaxed Jacobi sweeps that stopped on
+// the mean compression (diluted by depth: a missing share of the hydrostatic support shows
+// in the floor layer only), and a wall layer that the stiffness of its own mirror images
+// sets ringing once omega dt > 2 (kappa ~ g H grows with depth). Fixed by the bound-
+// constrained CG solve with a per-particle residual bound and the time-step bound on the
+// stiffness (TimeStepDFSPH.cpp, kMaxResidualShare and kStiffnessStepFactor).
 TEST(DFSPHColumn, SeventyTwoLayersHoldHydrostaticPressureStepByStep) {
   const ColumnResult r = settleColumn(72, 12, 0.8);
   EXPECT_NEAR(r.pressureMean, 1.0, 0.02);
@@ -118,5 +111,13 @@ TEST(DFSPHColumn, SeventyTwoLayersHoldHydrostaticPressureStepByStep) {
   EXPECT_LT(r.maxCompression, 0.01);
   EXPECT_LE(r.meanCompression, 0.0005 * 1.05);
   EXPECT_LT(r.rmsSpeed, 0.01 * std::sqrt(kStandardGravity * 72 * 0.003175));
+}
+
+TEST(DFSPHColumn, TwoHundredLayersComeToRest) {
+  const ColumnResult r = settleColumn(200, 12, 2.0);
+  EXPECT_NEAR(r.pressureMean, 1.0, 0.01);
+  EXPECT_LT(r.maxCompression, 0.01);
+  EXPECT_LE(r.meanCompression, 0.0005 * 1.05);
+  EXPECT_LT(r.rmsSpeed, 0.01 * std::sqrt(kStandardGravity * 200 * 0.003175));
 }
 #endif

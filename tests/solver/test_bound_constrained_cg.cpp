@@ -1,0 +1,119 @@
+// BoundConstrainedCG.h: the primal-dual active set method with CG inner solves, on
+// problems whose answer is known exactly.
+//
+// 1. The discrete obstacle problem of a 1-D Laplacian (A = tridiag(-1, 2, -1), scaled
+//    to unit diagonal) with a load b that pushes up at both ends and down in the middle,
+//    from a feasible start off the bound: checked by the KKT conditions themselves
+//    (x >= 0, g >= 0, x g = 0) and against projected Gauss-Seidel run to convergence.
+// 2. Without active bounds (b > 0 everywhere so x > 0) it is plain CG: the solution
+//    of A x = b to the tolerance, found in at most n products (exact arithmetic: n).
+// 3. The same iterates on 1 and on many threads (fixed-order sums).
+#include "libsph/solver/BoundConstrainedCG.h"
+
+#include <gtest/gtest.h>
+
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <vector>
+
+using namespace cascade;
+
+namespace {
+
+/// A = tridiag(-1/2, 1, -1/2) (the 1-D Laplacian scaled to unit diagonal), Dirichlet ends.
+struct Laplacian1D {
+  double tolerance = 1e-12, maxResidual = 1e-12;
+  void product(const std::vector<double>& p, std::vector<double>& out, double& pAp) const {
+    const std::size_t n = p.size();
+    pAp = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      out[i] = p[i] - 0.5 * ((i > 0 ? p[i - 1] : 0.0) + (i + 1 < n ? p[i + 1] : 0.0));
+      pAp += p[i] * out[i];
+    }
+  }
+  double weight(std::size_t) const { return 1.0; }
+};
+
+std::vector<double> gradientOf(const Laplacian1D& A, const std::vector<double>& x, const std::vector<double>& b) {
+  std::vector<double> g(x.size());
+  double unused = 0;
+  A.product(x, g, unused);
+  for (std::size_t i = 0; i < x.size(); ++i) g[i] -= b[i];
+  return g;
+}
+
+/// Projected Gauss-Seidel to convergence: the reference answer.
+std::vector<double> projectedGaussSeidel(const std::vector<double>& b) {
+  const std::size_t n = b.size();
+  std::vector<double> x(n, 0.0);
+  for (int sweep = 0; sweep < 200000; ++sweep) {
+    double change = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double neighbours = 0.5 * ((i > 0 ? x[i - 1] : 0.0) + (i + 1 < n ? x[i + 1] : 0.0));
+      const double next = std::max(0.0, b[i] + neighbours);
+      change = std::max(change, std::abs(next - x[i]));
+      x[i] = next;
+    }
+    if (change < 1e-15) break;
+  }
+  return x;
+}
+
+} // namespace
+
+TEST(BoundConstrainedCG, SolvesTheObstacleProblemToItsKktPoint) {
+  const std::size_t n = 64;
+  std::vector<double> b(n);
+  for (std::size_t i = 0; i < n; ++i) b[i] = std::sin(3.0 * M_PI * double(i) / double(n - 1)) * 0.01 - 0.003;  // up, down, up
+  Laplacian1D A;
+  std::vector<double> x(n, 0.05);  // a feasible start off the bound: the bound set must be found
+  std::vector<double> g = gradientOf(A, x, b);
+  const BoundConstrainedResult result = solveBoundConstrained(A, x, g, 10000);
+  EXPECT_TRUE(result.converged);
+  EXPECT_GT(result.activeSetSteps, 0);  // the bound set had to be found
+  const std::vector<double> exact = gradientOf(A, x, b);
+  int bound = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    EXPECT_GE(x[i], 0.0) << i;
+    EXPECT_GE(exact[i], -1e-11) << i;               // no compression left where x = 0
+    EXPECT_LT(std::abs(x[i] * exact[i]), 1e-12) << i;  // complementarity
+    EXPECT_NEAR(g[i], exact[i], 1e-11) << i;        // the updated gradient is A x - b
+    bound += x[i] == 0.0 ? 1 : 0;
+  }
+  EXPECT_GT(bound, 5);       // the downward load leaves a stretch at the bound
+  EXPECT_LT(bound, int(n) - 5);
+  const std::vector<double> reference = projectedGaussSeidel(b);
+  for (std::size_t i = 0; i < n; ++i) EXPECT_NEAR(x[i], reference[i], 1e-9) << i;
+}
+
+TEST(BoundConstrainedCG, IsConjugateGradientsWhenNoBoundIsActive) {
+  const std::size_t n = 40;
+  std::vector<double> b(n, 0.01);
+  Laplacian1D A;
+  std::vector<double> x(n, 0.0);
+  std::vector<double> g = gradientOf(A, x, b);
+  const BoundConstrainedResult result = solveBoundConstrained(A, x, g, 10000);
+  EXPECT_TRUE(result.converged);
+  EXPECT_LE(result.products, int(n) + 2);  // CG: n steps in exact arithmetic (+ the final check)
+  // Exact: x_i = 0.02 (i + 1)(n - i) / 2 solves tridiag(-1/2, 1, -1/2) x = 0.01 with x_0 = x_{n+1} = 0.
+  for (std::size_t i = 0; i < n; ++i) EXPECT_NEAR(x[i], 0.01 * double(i + 1) * double(n - i), 1e-9) << i;
+}
+
+TEST(BoundConstrainedCG, GivesTheSameIteratesOnAnyNumberOfThreads) {
+  const std::size_t n = 5000;  // several fixed-order chunks
+  std::vector<double> b(n);
+  for (std::size_t i = 0; i < n; ++i) b[i] = std::sin(7.0 * M_PI * double(i) / double(n - 1)) * 0.01;
+  auto solve = [&](int threads) {
+    tbb::global_control control(tbb::global_control::max_allowed_parallelism, threads);
+    Laplacian1D A;
+    A.tolerance = 1e-6;
+    A.maxResidual = 1e-9;
+    std::vector<double> x(n, 0.0);
+    std::vector<double> g = gradientOf(A, x, b);
+    solveBoundConstrained(A, x, g, 400);
+    return x;
+  };
+  const std::vector<double> one = solve(1), many = solve(8);
+  for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(one[i], many[i]) << i;
+}
