@@ -280,8 +280,10 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
            << " particles overlap earlier blocks, which fill that space\n";
   }
   if (const int layers = deepestFluidLayers(scene); log && scene.solver.type == "dfsph" && layers > kDfsphStillWaterLayers)
-    *log << "warning: a fluid block stacks " << layers << " particle layers; beyond about " << kDfsphStillWaterLayers
-         << " DFSPH does not hold resting water still (README, Solvers and their limits): use solver.type=wcsph "
+    *log << "warning: a fluid block stacks " << layers << " particle layers; DFSPH is measured to hold resting water "
+            "still up to "
+         << kDfsphStillWaterLayers
+         << " (docs/dfsph-deep-water.md), deeper is untested: check the first frames, or use solver.type=wcsph "
             "or a coarser fluid.spacing\n";
   const Real cap = scene.solver.type == "dfsph" ? kDfsphMaxCfl : kWcsphMaxCfl;
   if (log && scene.solver.cfl > double(cap))

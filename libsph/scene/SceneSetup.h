@@ -27,7 +27,7 @@ SimulationSettings simulationSettings(const Scene& scene);
 /// particles that lie inside a solid or within half a spacing of an earlier
 /// block (blocks fill their union once; both logged). Mesh loading and
 /// simplification are logged to `log` if not null, and so is a warning when a
-/// dfsph scene starts with water deeper than DFSPH holds still
+/// dfsph scene starts with water deeper than DFSPH is measured to hold still
 /// (kDfsphStillWaterLayers) or asks for a CFL factor above the one it holds (kDfsphMaxCfl).
 void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* log);
 

@@ -818,11 +818,11 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   c.timings.forces += millisecondsSince(start);
 
   // --- 5. force on the boundaries, positions, pressure ---
-  // A shortened step reports the last regular step's pressure and forces: it starts from
-  // half that stiffness and, its dt being short, needs little more, so its own stiffness
-  // is not the pressure of the water (a resting tank's floor read 0.58-0.92 rho g H at
-  // 100 Hz probe times, 0.99 at regular steps, measured). Frames and probes land on
-  // shortened steps, so this is what they record.
+  // A shortened step reports the last regular step's pressure and forces. With the half
+  // warm start of the earlier Jacobi solve its own stiffness was not the pressure of the
+  // water (a resting tank's floor read 0.58-0.92 rho g H at 100 Hz probe times, 0.99 at
+  // regular steps, measured); frames and probes land on shortened steps, so they report
+  // regular ones.
   const std::vector<Real>& reportedDensityKappa = shortStep ? savedDensityKappa : mDensityKappa;
   const std::vector<Real>& reportedDivergenceKappa = shortStep ? savedDivergenceKappa : mDivergenceKappa;
   start = Clock::now();

@@ -27,27 +27,23 @@
 ///      density change of one step is below divergenceTolerance;
 ///   3. v += dt a (the accelerations of step 1);
 ///   4. constant-density solve (B&K 2017 alg. 3): with the predicted density
-///      rho*_i = rho_i + dt D rho_i/Dt (only compression corrected),
-///      kappa_i = (rho*_i / rho_0 - 1) alpha_i / dt^2, the same velocity update,
-///      until the mean (rho*_i - rho_0) / rho_0 is below densityTolerance (at least
-///      one sweep after the warm start, at most maxIterations); the sweeps are
-///      under-relaxed (omega = 0.6) with a momentum term (beta = 0.5 x the particle's
-///      last increment): unrelaxed sweeps overshoot, which a compression-only solve
-///      cannot take back, and left a resting tall column's pressure ringing from step
-///      to step (issue 7; constants and measurements in TimeStepDFSPH.cpp);
+///      rho*_i = rho_i + dt D rho_i/Dt, the stiffness kappa >= 0 that removes the predicted
+///      compression where there is pressure (kappa_i > 0 only where rho*_i would exceed
+///      rho_0): a bound-constrained problem, solved by the primal-dual active set method with
+///      Jacobi-scaled conjugate gradients (BoundConstrainedCG.h), from the whole stiffness of
+///      the last step; it stops when the mean compression is below densityTolerance and every
+///      particle's below 2 % of it (the mean alone is diluted by depth: issue 19,
+///      docs/dfsph-deep-water.md), at most maxIterations operator products;
 ///   5. x += dt v (symplectic Euler).
-/// Each Jacobi sweep is two passes over the pair terms: apply the increments
-/// (v_i -= dt (s_i G_i + sum_j s_j V grad W_ij), G_i = sum_j V grad W_ij) and the
-/// residuals with the next increments and the error (fixed chunks: deterministic).
-/// Warm starts (B&K 2017 section 4.1): each solve starts from half the
-/// stiffness kappa (a pressure over density, m^2/s^2) the particle ended the
-/// previous step with, where the particle is still being compressed (divergence:
-/// the rate of step 1; density: that rate after the divergence solve plus gravity's
-/// part, no extra pass), kept per particle through reorders, removals and
-/// checkpoints (the whole stiffness oscillates from step to step, measured). Reported
-/// pressure p_i = (kappa_i + kappa^v_i) rho_i^2 / rho_0 (from
+/// Each divergence-free Jacobi sweep, and each product of the density solve's operator, is
+/// two passes over the pair terms: the velocity change of a stiffness vector
+/// (v_i -= dt (s_i G_i + sum_j s_j V grad W_ij), G_i = sum_j V grad W_ij) and the density
+/// rates it gives (fixed chunks: deterministic). The divergence solve starts from half the
+/// stiffness the particle ended the previous step with where the velocity field compresses
+/// (B&K 2017 section 4.1); both stiffnesses follow the particles through reorders, removals
+/// and checkpoints. Reported pressure p_i = (kappa_i + kappa^v_i) rho_i^2 / rho_0 (from
 /// a_i = -sum_j m (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij); in resting water it is
-/// hydrostatic step by step (floor pressure within about 1 % of rho g H, 36-72 layers).
+/// hydrostatic step by step (a 200-layer column: floor within 1.2 % of rho g H).
 ///
 /// Boundaries: the SEED's type II mirror particles (Libersky & Petschke 1993),
 /// rebuilt each step by the Simulation for the fluid within kappa h of a wall,
@@ -67,13 +63,16 @@
 /// are always free slip.
 ///
 /// Time step (TimeStepNeeds): CFL on the velocity only, dt = cfl h / v_max (no
-/// speed of sound), and dt <= 0.06 sqrt(h / a_max) with a_max the largest
-/// non-pressure acceleration. A step the Simulation shortened to land on a frame or
+/// speed of sound), dt <= 0.06 sqrt(h / a_max) with a_max the largest
+/// non-pressure acceleration, and dt <= 0.2 h / sqrt(kappa_max) (maxTimeStep(): a wall
+/// particle and its own mirror image act as an explicit spring whose stiffness grows
+/// with kappa, i.e. with depth). A step the Simulation shortened to land on a frame or
 /// probe time (dt == maxTimeStep and less than half the last regular step) removes
 /// only its share of the density error already there, keeps the warm starts, and
-/// reports the last regular step's pressure and forces (its own stiffness, half the
-/// warm start and little more, is not the water's pressure).
-/// Robustness: a step removes at most 2 % of a compression already there (so
+/// reports the last regular step's pressure and forces (with the half warm start of the
+/// earlier Jacobi solve its own stiffness was not the water's pressure; kept so that frames
+/// and probes report regular steps).
+/// Robustness: a step removes at most 1 % of a compression already there (so
 /// overlapping particles part over several steps); alpha_i is 0 for a particle with nearly no neighbours (not 1/0);
 /// the divergence solve skips particles with fewer than 20 neighbours (free
 /// surface, B&K 2017); sums are taken in fixed chunks (bit-identical restarts).
@@ -86,12 +85,10 @@
 
 namespace cascade {
 
-/// Particle layers of resting water beyond which DFSPH does not hold it still (issue 7,
-/// measured: 72 layers: floor pressure within 0.4 %, step-to-step spread 0.2 of rho g H;
-/// 108 layers: 3.3 % off, 0.3-5 x rho g H step to step, bouncing at up to 3.5 cm/s). The
-/// stop on the average compression does not see the hydrostatic support the sweeps leave
-/// out: it shows in the floor layer only, diluted by the number of layers.
-constexpr int kDfsphStillWaterLayers = 80;
+/// Particle layers of resting water up to which DFSPH is measured to hold it still (issue
+/// 19: a 200-layer column at rest after 2 s, floor pressure within 1 % of rho g H; see
+/// docs/dfsph-deep-water.md). Deeper water has not been measured: `cascade bake` warns.
+constexpr int kDfsphStillWaterLayers = 200;
 
 /// Largest CFL factor (dt = cfl h / v_max, h the support radius: one spacing a step at
 /// 0.5) DFSPH holds; a larger solver.cfl is used as this. Measured (issue 7), a 10 m/s
