@@ -53,7 +53,7 @@ struct ErrorNorms {
 };
 
 /// ErrorNorms of e_i = error(i) (0 for a variable that does not count), with g_i^2 taken
-/// where counted(i); f(i) runs first for each i (an update fused into the same pass).
+/// where counted(i); update(i) runs first for each i (an update fused into the same pass).
 template <typename Problem, typename Error, typename Counted, typename Update>
 ErrorNorms errorNorms(const Problem& problem, std::size_t n, Error&& error, Counted&& counted, Update&& update,
                       const std::vector<double>& g) {

@@ -33,20 +33,20 @@ double deterministicSum(std::size_t n, F&& f) {
   return total;
 }
 
-/// Smallest f(i) over [0, n) (+infinity for n = 0); a minimum is order-independent.
+/// Largest f(i) over [0, n) (-infinity for n = 0); a maximum is order-independent.
 template <typename F>
-double parallelMinimum(std::size_t n, F&& f) {
+double parallelMaximum(std::size_t n, F&& f) {
   const std::size_t chunks = (n + kSumChunk - 1) / kSumChunk;
-  std::vector<double> partial(chunks, std::numeric_limits<double>::infinity());
+  std::vector<double> partial(chunks, -std::numeric_limits<double>::infinity());
   tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
-    double least = std::numeric_limits<double>::infinity();
+    double most = -std::numeric_limits<double>::infinity();
     const std::size_t end = std::min(n, (c + 1) * kSumChunk);
-    for (std::size_t i = c * kSumChunk; i < end; ++i) least = std::min(least, f(i));
-    partial[c] = least;
+    for (std::size_t i = c * kSumChunk; i < end; ++i) most = std::max(most, f(i));
+    partial[c] = most;
   });
-  double least = std::numeric_limits<double>::infinity();
-  for (double p : partial) least = std::min(least, p);
-  return least;
+  double most = -std::numeric_limits<double>::infinity();
+  for (double p : partial) most = std::max(most, p);
+  return most;
 }
 
 /// f(i) for every i in [0, n), in parallel blocks of 512.

@@ -78,11 +78,6 @@ constexpr Real kMaxErrorPerStep = Real(0.01);
 constexpr std::uint32_t kMinDivergenceNeighbors = 20;  // B&K 2017: no divergence solve at the surface
 constexpr std::uint32_t kNotInLayer = ~std::uint32_t(0);
 
-template <typename F>
-void forEachParticle(std::size_t n, F&& f) {
-  forEachIndex(n, f);
-}
-
 template <typename T>
 void keepIf(std::vector<T>& values, const std::vector<char>& remove) {
   if (values.size() != remove.size()) return;
@@ -446,7 +441,7 @@ void TimeStepDFSPH::prepare(StepContext& c) {
   const bool avx2 = haveAvx2() && std::getenv("CASCADE_NO_AVX2") == nullptr;
   const PairConstants pairConstants{h2, kernel.inverseSupport, kernel.valueCoeff, kernel.gradientCoeff, volume, epsilon2,
                                     nu, artificial};
-  forEachParticle(n, [&](std::size_t i) {
+  forEachIndex(n, [&](std::size_t i) {
     const Vec3r xi = particles.position[i], vi = velocity[i];
     Real density = volume * selfValue;
     Vec3r gradientSum = Vec3r::Zero();
@@ -565,7 +560,7 @@ void TimeStepDFSPH::applyWallShear(StepContext& c, Real dt) {
   const std::vector<std::uint32_t>& mapOffsets = c.boundary.mirrorOffsets();
   const bool mirrors = mapOffsets.size() == n + 1 && !maps.empty();
   std::vector<Vec3r>& velocity = c.particles.velocity;
-  forEachParticle(n, [&](std::size_t i) {
+  forEachIndex(n, [&](std::size_t i) {
     bool touching = false;
     if (mirrors && mLayerIndex[i] != kNotInLayer) {
       const Vec3r xi = c.particles.position[i];
@@ -593,7 +588,7 @@ void TimeStepDFSPH::applyWallShear(StepContext& c, Real dt) {
 /// over fluid and mirror neighbours (G_i = sum_j V grad W_ij); kappa += step.
 void TimeStepDFSPH::applyStep(std::vector<Vec3r>& velocity, std::vector<Real>& kappa, Real dt) {
   const Real* step = mKappaStep.data();
-  forEachParticle(velocity.size(), [&](std::size_t i) {
+  forEachIndex(velocity.size(), [&](std::size_t i) {
     velocity[i] -= dt * velocityChange(step, i);
     kappa[i] += step[i];
   });
@@ -651,11 +646,11 @@ Real TimeStepDFSPH::divergence(const std::vector<Vec3r>& velocity, std::size_t i
 }
 
 double TimeStepDFSPH::maxTimeStep(const DerivedConstants& constants) const {
-  Real largest = 0;
-  for (std::size_t i = 0; i < mDensityKappa.size(); ++i)
-    largest = std::max(largest, mDensityKappa[i] + (i < mDivergenceKappa.size() ? mDivergenceKappa[i] : Real(0)));
+  const double largest = parallelMaximum(mDensityKappa.size(), [&](std::size_t i) {
+    return double(mDensityKappa[i] + (i < mDivergenceKappa.size() ? mDivergenceKappa[i] : Real(0)));
+  });
   if (!(largest > 0)) return std::numeric_limits<double>::infinity();
-  return kStiffnessStepFactor * double(constants.supportRadius) / std::sqrt(double(largest));
+  return kStiffnessStepFactor * double(constants.supportRadius) / std::sqrt(largest);
 }
 
 /// The constant-density solve as the bound-constrained problem of BoundConstrainedCG.h in
@@ -663,11 +658,12 @@ double TimeStepDFSPH::maxTimeStep(const DerivedConstants& constants) const {
 /// rate and G the velocity change of applyStep; b = the residual at kappa = 0), Jacobi-scaled
 /// with S_i = 1 / sqrt(A_ii) = sqrt(alpha_i) / dt (a particle with alpha_i = 0 is inert).
 /// Starts from kappa (the warm start: applied to the velocities first), leaves the solution
-/// in kappa and the velocities it gives.
+/// in kappa and the velocities it gives, and the mean predicted compression left in
+/// meanCompression.
 template <typename Residual>
 BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity, std::vector<Real>& kappa, Real dt,
                                                     Residual&& residual, double tolerance, double maxResidual,
-                                                    int maxProducts) {
+                                                    int maxProducts, double& meanCompression) {
   const std::size_t n = velocity.size();
   std::vector<double>& S = mScaling;
   S.resize(n);
@@ -675,7 +671,7 @@ BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity
   mGradient.resize(n);
   mChange.resize(n);
   const double scale = double(dt) * double(dt);
-  forEachParticle(n, [&](std::size_t i) {
+  forEachIndex(n, [&](std::size_t i) {
     S[i] = mFactor[i] > 0 ? std::sqrt(double(mFactor[i]) / scale) : 0.0;
     mKappaStep[i] = S[i] > 0 ? std::max(kappa[i], Real(0)) : Real(0);
     kappa[i] = 0;
@@ -683,7 +679,7 @@ BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity
   applyStep(velocity, kappa, dt);
   std::vector<double>& x = mSolution;
   std::vector<double>& g = mGradient;
-  forEachParticle(n, [&](std::size_t i) {
+  forEachIndex(n, [&](std::size_t i) {
     x[i] = S[i] > 0 ? double(kappa[i]) / S[i] : 0.0;
     g[i] = -S[i] * double(residual(i));
   });
@@ -693,8 +689,8 @@ BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity
     double scale, tolerance, maxResidual;
     void product(const std::vector<double>& p, std::vector<double>& out, double& pAp) {
       const std::size_t count = p.size();
-      forEachParticle(count, [&](std::size_t i) { self.mKappaStep[i] = Real(S[i] * p[i]); });
-      forEachParticle(count, [&](std::size_t i) { self.mChange[i] = self.velocityChange(self.mKappaStep.data(), i); });
+      forEachIndex(count, [&](std::size_t i) { self.mKappaStep[i] = Real(S[i] * p[i]); });
+      forEachIndex(count, [&](std::size_t i) { self.mChange[i] = self.velocityChange(self.mKappaStep.data(), i); });
       pAp = deterministicSum(count, [&](std::size_t i) {
         out[i] = S[i] > 0 ? S[i] * scale * double(self.divergence(self.mChange, i)) : 0.0;
         return p[i] * out[i];
@@ -703,8 +699,14 @@ BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity
     double weight(std::size_t i) const { return S[i] > 0 ? 1.0 / S[i] : 0.0; }
   } problem{*this, S, scale, tolerance, maxResidual};
   const BoundConstrainedResult result = solveBoundConstrained(problem, x, g, maxProducts);
-  forEachParticle(n, [&](std::size_t i) { mKappaStep[i] = Real(S[i] * x[i]) - kappa[i]; });
+  forEachIndex(n, [&](std::size_t i) { mKappaStep[i] = Real(S[i] * x[i]) - kappa[i]; });
   applyStep(velocity, kappa, dt);
+  // The mean compression left, from the solve's own residual (g = -S r); an inert particle's
+  // is measured (it has no place in the solve).
+  meanCompression = deterministicSum(n, [&](std::size_t i) {
+                      return S[i] > 0 ? std::max(-g[i] / S[i], 0.0) : double(std::max(residual(i), Real(0)));
+                    }) /
+                    double(n);
   return result;
 }
 
@@ -761,7 +763,7 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
       return double(r);
     };
     // Warm start where the velocity field compresses (rates from prepare()).
-    forEachParticle(n, [&](std::size_t i) {
+    forEachIndex(n, [&](std::size_t i) {
       const bool compressing = mNeighborCount[i] >= kMinDivergenceNeighbors && mRate[i] > 0;
       mKappaStep[i] = compressing ? kDivergenceWarmStart * mDivergenceKappa[i] : Real(0);
       mDivergenceKappa[i] = 0;
@@ -810,10 +812,8 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
     const double tolerance = kDensityToleranceMargin * double(solver.densityTolerance);
     const BoundConstrainedResult result =
         solveOneSided(velocity, mDensityKappa, dt, residual, tolerance * double(n), kMaxResidualShare * tolerance,
-                      maxIterations);
+                      maxIterations, mStatistics.densityError);
     mStatistics.densityIterations = result.products;
-    mStatistics.densityError =
-        deterministicSum(n, [&](std::size_t i) { return double(std::max(residual(i), Real(0))); }) / double(n);
   }
   c.timings.forces += millisecondsSince(start);
 
@@ -907,7 +907,7 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   start = Clock::now();
   {
     const Real restDensity = c.settings.fluid.restDensity;
-    forEachParticle(n, [&](std::size_t i) {
+    forEachIndex(n, [&](std::size_t i) {
       particles.position[i] += dt * velocity[i];
       const Real rho = particles.density[i];
       // kappa = rho_0 p / rho^2; both solves' impulses make up the pressure of the step
