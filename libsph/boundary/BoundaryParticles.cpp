@@ -117,6 +117,7 @@ BoundaryParticles& BoundaryParticles::operator=(BoundaryParticles&&) noexcept = 
 
 void BoundaryParticles::sample(const std::vector<BoundaryPtr>& boundaries, Real maxGap,
                                Real sampleRadius) {
+  mGap = maxGap;
   mSamples.clear();
   mOwners.clear();
   mLattices.clear();

@@ -71,6 +71,8 @@ public:
   const std::vector<std::uint32_t>& layer() const { return mLayer; }
 
   std::size_t sampleCount() const { return mSamples.size(); }
+  /// The largest gap the samples were made with (sample()'s maxGap), m.
+  Real sampleGap() const { return mGap; }
   /// Type I samples per boundary.
   std::vector<std::size_t> samplesPerBoundary(std::size_t boundaryCount) const;
 
@@ -99,6 +101,7 @@ private:
   std::vector<Vec3r> mMovingVelocity;
   std::vector<Vec3r> mSamples;
   std::vector<std::uint32_t> mOwners;
+  Real mGap = 0;
   NeighborLists mSampleNeighbors;
   std::vector<std::uint32_t> mMirrorOffsets{0};
   std::vector<MirrorMap> mMirrors;

@@ -350,7 +350,7 @@ std::unique_ptr<MeshBoundary> MeshBoundary::load(const std::filesystem::path& pa
 }
 
 void MeshBoundary::sampleSurface(Real maxGap, std::vector<Vec3r>& samples) const {
-  const std::vector<Vec3r> mine = sampleTrianglesSeed(mImpl->mesh, maxGap);
+  const std::vector<Vec3r> mine = sampleTriangles(mImpl->mesh, maxGap);
   samples.insert(samples.end(), mine.begin(), mine.end());
 }
 

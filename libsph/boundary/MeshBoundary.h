@@ -3,9 +3,9 @@
 ///        or STL with assimp, placed by a transform (uniform scale, rotation,
 ///        translation), simplified with CGAL Surface_mesh_simplification to a
 ///        target triangle count (the SEED takes the bunny from 3,600 to 900),
-///        sampled with 7 type I particles per triangle (3 vertices, 3 edge
-///        midpoints, centroid; shared vertices and midpoints once), triangles
-///        subdivided until no gap between samples exceeds the allowed gap.
+///        sampled with type I particles: 7 per small triangle (3 vertices, 3
+///        edge midpoints, centroid; shared vertices and midpoints once), larger
+///        triangles area-true (sampleTriangles()).
 ///        Type II mirrors are taken across the tangent plane at the closest
 ///        surface point. Fluid lives outside; the mesh must be closed (small
 ///        holes, as in the scanned bunny's base, are filled with CGAL's hole
@@ -45,11 +45,14 @@ std::size_t countBorderEdges(const TriangleMesh& mesh);
 /// returns the number of holes filled.
 std::size_t fillMeshHoles(TriangleMesh& mesh, const std::string& context);
 
-/// SEED sampling: 7 points per triangle (vertices, edge midpoints, centroid),
-/// shared points once; triangles with an edge longer than 2 maxGap are first
-/// split 1-to-4 (recursively) so that no gap exceeds maxGap.
-std::vector<Vec3r> sampleTrianglesSeed(const TriangleMesh& mesh, Real maxGap,
-                                       std::size_t* subdividedTriangles = nullptr);
+/// Type I samples of a mesh, each point once, none farther than maxGap from any
+/// surface point: every vertex, every edge at most maxGap apart (at least its
+/// midpoint), the centroid of a small triangle (longest edge <= 2 maxGap: the SEED's
+/// 7 points), and rows of points at most maxGap apart inside a larger one (parallel
+/// to its longest edge, kept maxGap / 2 off the others), so that the count follows
+/// area / maxGap^2 for any triangle shape. `rowSampledTriangles`: the larger ones.
+std::vector<Vec3r> sampleTriangles(const TriangleMesh& mesh, Real maxGap,
+                                   std::size_t* rowSampledTriangles = nullptr);
 
 class MeshBoundary final : public Boundary {
 public:

@@ -1,15 +1,18 @@
-// SEED section 2.2: 7 type I particles per triangle (3 vertices, 3 edge
-// midpoints, the centroid), triangles split 1-to-4 until no gap exceeds the
-// limit (declared in MeshBoundary.h).
+// Type I samples on a triangle mesh (declared in MeshBoundary.h): area-true for
+// any triangle shape, the SEED's 7 points (section 2.2) on the small ones.
 //
-// A triangle split k times is the regular grid of m = 2^k segments per edge;
-// its leaves' vertices and edge midpoints together are the regular grid of
-// 2m segments, plus one centroid per leaf. So the samples are generated
-// directly, each once: every mesh vertex; along every edge the points of the
-// finer of its two triangles' grids; inside every triangle its grid's interior
-// points and its leaves' centroids: no repeated points from shared leaf
-// corners (the final hash pass only meets the few that degenerate triangles
-// of hole filling repeat).
+// - Every mesh vertex once (positions that coincide are one vertex).
+// - Every edge once, shared by its two triangles: evenly spaced points, the
+//   fewest segments with none longer than the gap, at least 2 (the SEED's midpoint).
+// - A small triangle (longest edge <= 2 gap: its midpoint gaps are <= gap) adds
+//   its centroid: the SEED's 7 points.
+// - A larger one adds rows parallel to its longest edge, evenly spaced (at most a
+//   gap apart), each row's points evenly spaced (at most a gap apart) between the
+//   places where the row comes within gap / 2 of the other two edges: closer in,
+//   the edge's own samples cover. So the count is area / gap^2 plus the edges'
+//   share, whatever the shape: a thin triangle is no longer sampled as if it were
+//   square (the 1-to-4 subdivision this replaces gave a 1:50 triangle 50x its area's
+//   samples, and rounded the segments up to a power of two).
 #include "libsph/boundary/MeshBoundary.h"
 
 #include "libsph/boundary/BoundarySampling.h"
@@ -22,18 +25,17 @@
 namespace cascade {
 
 namespace {
-/// Segments per edge of the triangle's 1-to-4 subdivision: the least power of
-/// two m with longest edge / m <= 2 maxGap (then no vertex-midpoint gap exceeds maxGap).
-long subdivisionSegments(Real longest, Real maxGap) {
-  long m = 1;
-  while (longest / Real(m) > 2 * maxGap && m < (1L << 20)) m *= 2;
-  return m;
+/// Segments of a stretch of length `length` with none longer than maxGap (at least `least`).
+long segmentsFor(double length, double maxGap, long least) {
+  const double segments = std::ceil(length / maxGap - 1e-4);
+  return std::max(least, segments > 1e9 ? long(1e9) : long(segments));
 }
 } // namespace
 
-std::vector<Vec3r> sampleTrianglesSeed(const TriangleMesh& mesh, Real maxGap, std::size_t* subdividedTriangles) {
+std::vector<Vec3r> sampleTriangles(const TriangleMesh& mesh, Real maxGap, std::size_t* rowSampledTriangles) {
   std::vector<Vec3r> samples;
-  std::size_t subdivided = 0;
+  std::size_t rowSampled = 0;
+  const double gap = double(maxGap);
   const auto vertex = [&](std::uint32_t v) { return mesh.vertices[v].cast<double>(); };
   // Vertices at the same position (seams left by hole filling) are one vertex:
   // each position is sampled once, and edges are keyed by these canonical indices.
@@ -50,49 +52,59 @@ std::vector<Vec3r> sampleTrianglesSeed(const TriangleMesh& mesh, Real maxGap, st
   for (const auto& t : mesh.triangles) used[canonical[t[0]]] = used[canonical[t[1]]] = used[canonical[t[2]]] = 1;
   for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
     if (used[v]) samples.push_back(mesh.vertices[v].cast<Real>());
-  // Subdivision of each triangle; each edge takes the finer of its two triangles.
-  std::vector<long> segments(mesh.triangles.size(), 1);
-  std::map<std::pair<std::uint32_t, std::uint32_t>, long> edgeSegments;
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    const auto& tri = mesh.triangles[t];
-    Real longest = 0;
-    for (int e = 0; e < 3; ++e)
-      longest = std::max(longest, (mesh.vertices[tri[e]] - mesh.vertices[tri[(e + 1) % 3]]).cast<Real>().norm());
-    segments[t] = subdivisionSegments(longest, maxGap);
-    if (segments[t] > 1) ++subdivided;
+  // Edges: once each, the count from the length alone (both triangles agree).
+  std::map<std::pair<std::uint32_t, std::uint32_t>, char> edges;
+  for (const auto& tri : mesh.triangles)
     for (int e = 0; e < 3; ++e) {
       std::uint32_t a = canonical[tri[e]], b = canonical[tri[(e + 1) % 3]];
       if (a > b) std::swap(a, b);
-      long& edge = edgeSegments[{a, b}];
-      edge = std::max(edge, segments[t]);
+      if (a != b) edges.emplace(std::make_pair(a, b), 0);
     }
-  }
-  // Edges: the points between the end vertices of the 2m-segment grid (m = 1: the midpoint).
-  for (const auto& [edge, m] : edgeSegments) {
-    const Vec3d a = vertex(edge.first), b = vertex(edge.second);
-    const long n = 2 * m;
+  for (const auto& entry : edges) {
+    const Vec3d a = vertex(entry.first.first), b = vertex(entry.first.second);
+    const long n = segmentsFor((b - a).norm(), gap, 2);
     for (long q = 1; q < n; ++q) samples.push_back((a + (double(q) / double(n)) * (b - a)).cast<Real>());
   }
-  // Triangles: interior points of the 2m grid, then the centroids of the m^2 leaves.
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    const auto& tri = mesh.triangles[t];
-    const Vec3d a = vertex(tri[0]), ab = vertex(tri[1]) - a, ac = vertex(tri[2]) - a;
-    const long m = segments[t], n = 2 * m;
-    const auto at = [&](double i, double j) { return (a + i * ab + j * ac).cast<Real>(); };
-    for (long j = 1; j < n; ++j)
-      for (long i = 1; i + j < n; ++i) samples.push_back(at(double(i) / double(n), double(j) / double(n)));
-    const double third = 1.0 / 3.0;
-    for (long j = 0; j < m; ++j)
-      for (long i = 0; i + j < m; ++i) {
-        samples.push_back(at((double(i) + third) / double(m), (double(j) + third) / double(m)));  // upward leaf
-        if (i + j < m - 1)
-          samples.push_back(at((double(i) + 2 * third) / double(m), (double(j) + 2 * third) / double(m)));  // downward
+  // Triangles: the centroid of a small one, rows inside a larger one.
+  for (const auto& tri : mesh.triangles) {
+    int base = 0;  // the longest edge runs from corner `base` to the next
+    double longest = -1;
+    for (int e = 0; e < 3; ++e) {
+      const double length = (vertex(tri[(e + 1) % 3]) - vertex(tri[e])).norm();
+      if (length > longest) longest = length, base = e;
+    }
+    const Vec3d a = vertex(tri[base]), b = vertex(tri[(base + 1) % 3]), c = vertex(tri[(base + 2) % 3]);
+    if (longest <= 2 * gap) {
+      samples.push_back(((a + b + c) / 3.0).cast<Real>());
+      continue;
+    }
+    ++rowSampled;
+    const Vec3d along = (b - a) / longest;
+    const double height = ((c - a) - (c - a).dot(along) * along).norm();
+    // sin of the angles at a and b (both acute: ab is the longest edge)
+    const double lengthAC = (c - a).norm(), lengthBC = (c - b).norm();
+    if (!(height > 0) || !(lengthAC > 0) || !(lengthBC > 0)) continue;  // degenerate: its edges sample it
+    const double sinA = height / lengthAC, sinB = height / lengthBC;
+    const long rows = segmentsFor(height, gap, 1);
+    for (long k = 1; k < rows; ++k) {
+      const double t = double(k) / double(rows);
+      const Vec3d left = a + t * (c - a);
+      const double length = (1 - t) * longest;
+      const double begin = 0.5 * gap / sinA, end = length - 0.5 * gap / sinB;
+      const double span = end - begin;
+      if (span < 0) continue;  // the whole row lies within gap / 2 of the side edges
+      if (span < 0.5 * gap) {
+        samples.push_back((left + (begin + 0.5 * span) * along).cast<Real>());
+        continue;
       }
+      const long n = segmentsFor(span, gap, 1);
+      for (long q = 0; q <= n; ++q) samples.push_back((left + (begin + span * double(q) / double(n)) * along).cast<Real>());
+    }
   }
   // Degenerate or folded triangles (crack fans of hole filling) put points
   // where an edge or another triangle already has one: keep those once.
   removeDuplicateSamples(samples, maxGap * Real(1e-3));
-  if (subdividedTriangles) *subdividedTriangles = subdivided;
+  if (rowSampledTriangles) *rowSampledTriangles = rowSampled;
   return samples;
 }
 

@@ -446,4 +446,13 @@ TriangleMesh readObj(const std::filesystem::path& path) {
   return mesh;
 }
 
+double surfaceArea(const TriangleMesh& mesh) {
+  double area = 0;
+  for (const auto& tri : mesh.triangles) {
+    const Vec3d a = mesh.vertices[tri[0]].cast<double>();
+    area += 0.5 * (mesh.vertices[tri[1]].cast<double>() - a).cross(mesh.vertices[tri[2]].cast<double>() - a).norm();
+  }
+  return area;
+}
+
 } // namespace cascade

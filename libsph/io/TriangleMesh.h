@@ -45,6 +45,9 @@ enum class ObjAxes {
 /// significant digits (trailing zeros dropped): they read back to the same float. Blocks of
 /// lines are formatted in parallel (TBB) and written in order, so the file is the
 /// same as a serial writer's.
+/// Area of the mesh's triangles (m^2 for a mesh in metres).
+double surfaceArea(const TriangleMesh& mesh);
+
 void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh);
 /// The same with extra comment lines after the first ("# up: y"; one per '\n'-separated
 /// line), and the coordinates mapped by `axes` on the way out.

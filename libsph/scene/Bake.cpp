@@ -17,6 +17,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <iomanip>
 #include <sstream>
 
 namespace cascade::scene {
@@ -206,14 +207,22 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
   }
 
   {
-    // SEED 2.2: type I boundary particles per solid (the mesh loader logged its triangles).
+    // SEED 2.2: type I boundary particles per solid (the mesh loader logged its triangles),
+    // each with its ratio to area / gap^2 (1 for a wall's lattice; see docs/boundary-sampling.md).
     simulation.nextTimeStep();  // started: boundaries sampled
-    const std::vector<std::size_t> counts =
-        simulation.boundaryParticles().samplesPerBoundary(simulation.boundaryCount());
-    std::string line = "bake: " + std::to_string(simulation.particles().size()) + " fluid particles; type I boundary particles:";
-    for (std::size_t b = 0; b < counts.size(); ++b)
-      line += (b ? ", " : " ") + simulation.boundary(b).name() + " " + std::to_string(counts[b]);
-    progress.message(line);
+    const BoundaryParticles& samples = simulation.boundaryParticles();
+    const std::vector<std::size_t> counts = samples.samplesPerBoundary(simulation.boundaryCount());
+    const double gap = double(samples.sampleGap());
+    std::ostringstream line;
+    line << "bake: " << simulation.particles().size() << " fluid particles; type I boundary particles (gap "
+         << std::setprecision(3) << gap * 1000 << " mm; count / (area / gap^2)):";
+    for (std::size_t b = 0; b < counts.size(); ++b) {
+      const double area = surfaceArea(simulation.boundary(b).surfaceMesh());
+      line << (b ? ", " : " ") << simulation.boundary(b).name() << " " << counts[b];
+      if (area > 0 && gap > 0) line << " (" << std::fixed << std::setprecision(2) << double(counts[b]) * gap * gap / area << "x)";
+      line << std::defaultfloat;
+    }
+    progress.message(line.str());
   }
   const std::uint64_t stepsBefore = simulation.stepCount();
   const auto recordBake = [&](bool done, const std::string& error) {

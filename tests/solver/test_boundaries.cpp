@@ -1,5 +1,5 @@
 // Unit tests of the boundary geometry: mirror maps, type I sampling (gaps,
-// SEED 7-point triangles), mesh loading, simplification, closure and inside tests.
+// SEED 7-point triangles, area-true rows), mesh loading, simplification, closure and inside tests.
 #include "libsph/Errors.h"
 #include "libsph/boundary/BoundaryParticles.h"
 #include "libsph/boundary/BoundarySampling.h"
@@ -258,7 +258,7 @@ TEST(MeshSampling, ScanBunnySeamsAreSampledOnce) {
   auto bunny = loadScanBunny();
   ASSERT_TRUE(bunny);
   const Real gap = 0.004f;
-  const std::vector<Vec3r> samples = sampleTrianglesSeed(bunny->mesh(), gap);
+  const std::vector<Vec3r> samples = sampleTriangles(bunny->mesh(), gap);
   std::vector<Vec3r> merged = samples;
   removeDuplicateSamples(merged, gap * 1e-3f);
   EXPECT_EQ(merged.size(), samples.size());
@@ -268,43 +268,107 @@ TEST(MeshSampling, SevenPointsPerTriangleSharedOnce) {
   TriangleMesh mesh;
   mesh.vertices = {{0, 0, 0}, {0.01f, 0, 0}, {0, 0.01f, 0}, {0.01f, 0.01f, 0}};
   mesh.triangles = {{0, 1, 2}};
-  EXPECT_EQ(sampleTrianglesSeed(mesh, 0.01f).size(), 7u);
+  EXPECT_EQ(sampleTriangles(mesh, 0.01f).size(), 7u);
   mesh.triangles.push_back({1, 3, 2});
   // 4 vertices + 5 edge midpoints + 2 centroids
-  EXPECT_EQ(sampleTrianglesSeed(mesh, 0.01f).size(), 11u);
+  EXPECT_EQ(sampleTriangles(mesh, 0.01f).size(), 11u);
 }
 
-TEST(MeshSampling, SubdividesUntilNoGapExceedsTheLimit) {
-  TriangleMesh mesh;
-  mesh.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
-  mesh.triangles = {{0, 1, 2}};
-  const Real gap = 0.05f;
-  std::size_t subdivided = 0;
-  const std::vector<Vec3r> samples = sampleTrianglesSeed(mesh, gap, &subdivided);
-  EXPECT_EQ(subdivided, 1u);
-  EXPECT_LE(largestHole(samples, randomPointsOnTriangles(mesh, 500, 5)), gap);
+/// Samples per area / gap^2 of a mesh's sampling.
+double areaRatio(std::size_t samples, const TriangleMesh& mesh, Real gap) {
+  return double(samples) * double(gap) * double(gap) / surfaceArea(mesh);
 }
 
-TEST(MeshSampling, NeighboursOfDifferentSubdivisionShareEdgePointsOnce) {
-  // A long thin triangle (16 segments per edge) next to a small one (2)
-  // across a shared edge: the edge carries the finer grid, every point
-  // appears once, and no gap exceeds the limit on either triangle.
-  TriangleMesh mesh;
-  mesh.vertices = {{0, 0, 0}, {0.2f, 0, 0}, {0, 0.03f, 0}, {-0.02f, 0.015f, 0}};
-  mesh.triangles = {{0, 1, 2}, {0, 2, 3}};
-  const Real gap = 0.01f;
-  std::size_t subdivided = 0;
-  const std::vector<Vec3r> samples = sampleTrianglesSeed(mesh, gap, &subdivided);
-  EXPECT_EQ(subdivided, 2u);
+/// Every sample once (a doubled sample doubles SEED (11) there).
+void expectEachSampleOnce(const std::vector<Vec3r>& samples, Real gap, const std::string& what) {
   std::vector<Vec3r> merged = samples;
   removeDuplicateSamples(merged, gap * 1e-3f);
-  EXPECT_EQ(merged.size(), samples.size());
-  // 4 vertices; the big triangle's 3 edges (shared one included) at 32
-  // segments (31 points each), the small one's 2 others at 4 (3 each);
-  // interior grid points (n-1)(n-2)/2 (n = 32: 465; n = 4: 3) and m^2 leaf
-  // centroids (256 and 4).
-  EXPECT_EQ(samples.size(), 4u + 3u * 31u + 2u * 3u + 465u + 256u + 3u + 4u);
-  EXPECT_LE(largestHole(samples, randomPointsOnTriangles(mesh, 400, 7)), gap);
+  EXPECT_EQ(merged.size(), samples.size()) << what;
+}
+
+TEST(MeshSampling, LargeTrianglesAreSampledAreaTrue) {
+  // The 1-to-4 subdivision sampled a thin triangle as if it were square (a 1:50
+  // strip got ~50x its area's samples); rows keep the count at area / gap^2 plus
+  // the edges' share for any shape, with no point of the surface farther than the
+  // gap from a sample (a square wall: gap / sqrt 2, as the walls' lattices).
+  const Real gap = 0.01f;
+  struct Case {
+    const char* name;
+    TriangleMesh mesh;
+    double maxRatio, maxHole;
+  };
+  std::vector<Case> cases;
+  const auto add = [&](const char* name, std::vector<Eigen::Vector3f> vertices,
+                       std::vector<std::array<std::uint32_t, 3>> triangles, double maxRatio, double maxHole) {
+    TriangleMesh mesh;
+    mesh.vertices = std::move(vertices);
+    mesh.triangles = std::move(triangles);
+    cases.push_back({name, std::move(mesh), maxRatio, maxHole});
+  };
+  // edges (perimeter / gap) are a large share of a one-triangle mesh's area / gap^2 (here 0.2 of it)
+  add("right triangle 1 x 1 m", {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 2}}, 1.1, 0.75);
+  add("square 1 x 1 m", {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}}, {{0, 1, 2}, {0, 2, 3}}, 1.06, 0.72);
+  add("strip 2.5 x 0.05 m (1:50)", {{0, 0, 0}, {2.5f, 0, 0}, {2.5f, 0.05f, 0}, {0, 0.05f, 0}}, {{0, 1, 2}, {0, 2, 3}},
+      1.3, 0.9);
+  add("triangle 5 x 0.1 m (1:50)", {{0, 0, 0}, {5, 0, 0}, {1.5f, 0.1f, 0}}, {{0, 1, 2}}, 1.25, 0.9);
+  for (const Case& c : cases) {
+    std::size_t rowSampled = 0;
+    const std::vector<Vec3r> samples = sampleTriangles(c.mesh, gap, &rowSampled);
+    EXPECT_EQ(rowSampled, c.mesh.triangles.size()) << c.name;
+    expectEachSampleOnce(samples, gap, c.name);
+    const double ratio = areaRatio(samples.size(), c.mesh, gap);
+    EXPECT_GE(ratio, 1.0) << c.name;
+    EXPECT_LE(ratio, c.maxRatio) << c.name;
+    EXPECT_LE(largestHole(samples, randomPointsOnTriangles(c.mesh, 4000, 11)), c.maxHole * gap) << c.name;
+  }
+}
+
+TEST(MeshSampling, NeighboursOfDifferentSizesShareEdgePointsOnce) {
+  // A long thin triangle sampled by rows next to a small one (the SEED's 7 points)
+  // across a shared edge: the edge is sampled once, from its length alone (0.015 m at
+  // gap 0.01: its midpoint), every point appears once, and no gap exceeds the limit.
+  TriangleMesh mesh;
+  mesh.vertices = {{0, 0, 0}, {0.2f, 0, 0}, {0, 0.015f, 0}, {-0.01f, 0.0075f, 0}};
+  mesh.triangles = {{0, 1, 2}, {0, 2, 3}};
+  const Real gap = 0.01f;
+  std::size_t rowSampled = 0;
+  const std::vector<Vec3r> samples = sampleTriangles(mesh, gap, &rowSampled);
+  EXPECT_EQ(rowSampled, 1u);
+  expectEachSampleOnce(samples, gap, "two triangles");
+  // On the shared edge x = 0: its end vertices and its midpoint, nothing else.
+  const long onSharedEdge = std::count_if(samples.begin(), samples.end(), [](const Vec3r& s) {
+    return std::abs(s.x()) < 1e-6f && std::abs(s.z()) < 1e-6f;
+  });
+  EXPECT_EQ(onSharedEdge, 3);
+  EXPECT_LE(largestHole(samples, randomPointsOnTriangles(mesh, 2000, 7)), gap);
+}
+
+TEST(MeshSampling, ShippedMeshesAreAreaTrueAtProductionGaps) {
+  // The tower at the production tower's gap (1.35 mm) had 20.8x its area's samples,
+  // the bunny at the production bunny scene's scale and gap (1.25 mm) several times.
+  struct Mesh {
+    std::string name;
+    std::unique_ptr<MeshBoundary> boundary;
+    Real gap;
+  };
+  std::vector<Mesh> meshes;
+  meshes.push_back({"tower", MeshBoundary::load(std::string(CASCADE_SOURCE_DIR) + "/scenes/assets/tower.obj", {}), 0.00135f});
+  {
+    MeshObstacleOptions options;
+    options.targetTriangles = 900;
+    options.transform.scale = 1.926825f;
+    meshes.push_back(
+        {"bunny", MeshBoundary::load(std::string(CASCADE_SOURCE_DIR) + "/scenes/assets/bunny_res3.ply", options), 0.00125f});
+  }
+  for (const Mesh& m : meshes) {
+    const TriangleMesh& mesh = m.boundary->mesh();
+    const std::vector<Vec3r> samples = sampleTriangles(mesh, m.gap);
+    expectEachSampleOnce(samples, m.gap, m.name);
+    const double ratio = areaRatio(samples.size(), mesh, m.gap);
+    EXPECT_GE(ratio, 1.0) << m.name;
+    EXPECT_LE(ratio, 1.5) << m.name;
+    EXPECT_LE(largestHole(samples, randomPointsOnTriangles(mesh, int(4 * mesh.triangles.size()), 5)), m.gap) << m.name;
+  }
 }
 
 TEST(MeshBoundary, CubeInsideTestMirrorsAndTransform) {
