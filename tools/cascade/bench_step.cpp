@@ -9,7 +9,10 @@
 // neighbour search (with the periodic Morton reorder), density (SEED (4), (10)),
 // forces (SEED (5), (6), artificial viscosity, gravity), boundary (virtual
 // particle lists, mirror density and forces, SEED (11) repulsion), integration
-// (SEED (12)-(14), domain and stability checks). particle_steps_per_s is
+// (SEED (12)-(14), domain and stability checks). boundary_samples is the type I
+// sample count (n_boundary, the same count under its first name), and
+// samples_per_area their count per area / gap^2 (1 on the walls' lattices; meshes:
+// docs/boundary-sampling.md). particle_steps_per_s is
 // n_fluid x steps / wall time. stderr also shows the CPU time of all threads
 // (the machine is shared; other jobs stretch wall-clock times).
 #include "Benchmarks.h"
@@ -40,8 +43,9 @@ struct Case {
 } // namespace
 
 BenchTable benchStep() {
-  BenchTable table("step", {"solver", "n_fluid", "n_boundary", "ms_per_step", "neighbors_ms", "density_ms",
-                            "forces_ms", "boundary_ms", "integrate_ms", "particle_steps_per_s"});
+  BenchTable table("step", {"solver", "n_fluid", "n_boundary", "boundary_samples", "samples_per_area", "ms_per_step",
+                            "neighbors_ms", "density_ms", "forces_ms", "boundary_ms", "integrate_ms",
+                            "particle_steps_per_s"});
   const Case cases[] = {{10000, 10, 200}, {100000, 5, 40}, {1000000, 3, 8}};
   const Real spacing = Real(0.01);
   for (const Case& c : cases) {
@@ -64,10 +68,14 @@ BenchTable benchStep() {
     const double cpuMs = processCpuMs() - cpuStart;
     const StepTimings& t = sim.timings();
     const double steps = double(c.steps);
+    double area = 0;
+    for (std::size_t b = 0; b < sim.boundaryCount(); ++b) area += surfaceArea(sim.boundary(b).surfaceMesh());
+    const double gap = double(sim.boundaryParticles().sampleGap());
+    const std::size_t samples = sim.boundaryParticleCount();
     std::cerr << "bench step: " << fluid << " fluid: " << wallMs / steps << " ms/step wall, " << cpuMs / steps
               << " ms/step CPU (all threads), t = " << sim.time() << " s" << std::endl;
-    table.addRow({std::string("wcsph"), static_cast<long long>(fluid),
-                  static_cast<long long>(sim.boundaryParticleCount()), wallMs / steps, t.neighbors / steps,
+    table.addRow({std::string("wcsph"), static_cast<long long>(fluid), static_cast<long long>(samples),
+                  static_cast<long long>(samples), area > 0 ? double(samples) * gap * gap / area : 0.0, wallMs / steps, t.neighbors / steps,
                   t.density / steps, t.forces / steps, t.boundary / steps, t.integrate / steps,
                   double(fluid) * steps / (wallMs / 1000.0)});
   }
