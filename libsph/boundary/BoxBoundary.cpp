@@ -13,6 +13,7 @@ BoundaryPtr BoxBoundary::tank(const Vec3r& lo, const Vec3r& hi, bool closedTop, 
   box->mTank = true;
   box->mClosedTop = closedTop;
   box->mSymmetryAxes = symmetryAxes & 7u;
+  box->makeMirrorMaps();
   return box;
 }
 
@@ -23,7 +24,29 @@ BoundaryPtr BoxBoundary::solid(const Vec3r& center, const Vec3r& halfExtents,
   box->mHalf = halfExtents;
   box->mRotation = rotation;
   box->mTank = false;
+  box->makeMirrorMaps();
   return box;
+}
+
+void BoxBoundary::makeMirrorMaps() {
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side) {
+      const Vec3r normal = mRotation.col(axis) * (side ? Real(1) : Real(-1));  // outward; reflection is sign-free
+      mFaceMap[axis][side] = MirrorMap::reflection(mCenter + normal * mHalf[axis], normal, 0);
+      mFaceMap[axis][side].symmetry = mTank && ((mSymmetryAxes >> axis) & 1u);
+    }
+  if (!mTank) return;
+  // Products of the reflections across faces of different axes (edges and corners), in
+  // the order mirrorMaps() applies them: the lower axis first.
+  const int pairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+  for (int p = 0; p < 3; ++p)
+    for (int sa = 0; sa < 2; ++sa)
+      for (int sb = 0; sb < 2; ++sb)
+        mEdgeMap[p][sa][sb] = mFaceMap[pairs[p][1]][sb].after(mFaceMap[pairs[p][0]][sa]);
+  for (int s0 = 0; s0 < 2; ++s0)
+    for (int s1 = 0; s1 < 2; ++s1)
+      for (int s2 = 0; s2 < 2; ++s2)
+        mCornerMap[s0][s1][s2] = mFaceMap[2][s2].after(mFaceMap[1][s1]).after(mFaceMap[0][s0]);
 }
 
 void BoxBoundary::sampleSurfaceLattices(Real maxGap, std::vector<SampleLattice>& lattices,
@@ -59,8 +82,7 @@ void BoxBoundary::mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryI
   if (mTank) {
     // Walls within range: one reflection each, and the products of the
     // reflections across walls of different axes (edges and corners).
-    MirrorMap near[3];
-    bool haveAxis[3] = {false, false, false};
+    int nearSide[3] = {-1, -1, -1};  // per axis, the first wall within range
     const std::size_t first = maps.size();
     for (int axis = 0; axis < 3; ++axis) {
       if (std::abs(q[axis]) > mHalf[axis] + range) return;  // far outside: not this tank's fluid
@@ -69,24 +91,39 @@ void BoxBoundary::mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryI
         const Real sign = side ? Real(1) : Real(-1);
         const Real distance = mHalf[axis] - sign * q[axis];  // > 0 inside
         if (distance < 0 || distance >= range) continue;
-        const Vec3r normal = mRotation.col(axis) * sign;  // outward; reflection is sign-free
-        MirrorMap map = MirrorMap::reflection(mCenter + normal * mHalf[axis], normal, boundaryIndex);
-        map.symmetry = (mSymmetryAxes >> axis) & 1u;
-        maps.push_back(map);
-        if (!haveAxis[axis]) { near[axis] = map; haveAxis[axis] = true; }
+        maps.push_back(mFaceMap[axis][side]);
+        maps.back().boundary = boundaryIndex;
+        if (nearSide[axis] < 0) nearSide[axis] = side;
       }
     }
     if (maps.size() - first < 2) return;
-    for (int a = 0; a < 3; ++a)
-      for (int b = a + 1; b < 3; ++b)
-        if (haveAxis[a] && haveAxis[b]) maps.push_back(near[b].after(near[a]));
-    if (haveAxis[0] && haveAxis[1] && haveAxis[2]) maps.push_back(near[2].after(near[1]).after(near[0]));
+    const int pairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+    for (int p = 0; p < 3; ++p) {
+      const int sa = nearSide[pairs[p][0]], sb = nearSide[pairs[p][1]];
+      if (sa < 0 || sb < 0) continue;
+      maps.push_back(mEdgeMap[p][sa][sb]);
+      maps.back().boundary = boundaryIndex;
+    }
+    if (nearSide[0] >= 0 && nearSide[1] >= 0 && nearSide[2] >= 0) {
+      maps.push_back(mCornerMap[nearSide[0]][nearSide[1]][nearSide[2]]);
+      maps.back().boundary = boundaryIndex;
+    }
     return;
   }
-  // Solid block: closest point on the box; mirror across the tangent plane there.
+  // Solid block: closest point on the box; mirror across the tangent plane there
+  // (on a face: that face's plane, made once).
   Vec3r excess;
   for (int axis = 0; axis < 3; ++axis) excess[axis] = std::abs(q[axis]) - mHalf[axis];
   if (excess.maxCoeff() <= 0) return;  // inside: penetrated, the repulsion handles it
+  int outside = 0, faceAxis = 0;
+  for (int axis = 0; axis < 3; ++axis)
+    if (excess[axis] > 0) ++outside, faceAxis = axis;
+  if (outside == 1) {
+    if (excess[faceAxis] >= range) return;
+    maps.push_back(mFaceMap[faceAxis][q[faceAxis] > 0 ? 1 : 0]);
+    maps.back().boundary = boundaryIndex;
+    return;
+  }
   Vec3r closest = q;
   for (int axis = 0; axis < 3; ++axis) closest[axis] = std::clamp(q[axis], -mHalf[axis], mHalf[axis]);
   const Vec3r offset = q - closest;

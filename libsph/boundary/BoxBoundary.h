@@ -48,6 +48,12 @@ public:
 private:
   BoxBoundary() = default;
   bool faceIsWall(int axis, int side) const { return !(mTank && !mClosedTop && axis == 2 && side == 1); }
+  /// The mirror maps are fixed by the box: made once here (boundary index 0; the
+  /// caller's is set on each copy), not per particle and step.
+  void makeMirrorMaps();
+  MirrorMap mFaceMap[3][2];         ///< reflection across the face of axis, side
+  MirrorMap mEdgeMap[3][2][2];      ///< tank: face (a, side a) then face (b, side b), pairs a < b: 01, 02, 12
+  MirrorMap mCornerMap[2][2][2];    ///< tank: faces of axes 0, 1, 2 in turn, by their sides
   Vec3r mCenter = Vec3r::Zero(), mHalf = Vec3r::Ones();
   Eigen::Matrix<Real, 3, 3> mRotation = Eigen::Matrix<Real, 3, 3>::Identity();
   bool mTank = false, mClosedTop = false;
