@@ -142,6 +142,11 @@ public:
   /// The solid's surface as triangles in world coordinates (one group, named name()).
   virtual TriangleMesh surfaceMesh() const = 0;
 
+  /// True if mirrorMaps() gives maps only within 2 `range` of surfaceMesh()'s triangles
+  /// (a tank's wall mirrors up to `range` beyond its edges, within sqrt 3 range of it;
+  /// false: an unbounded plane mirrors everywhere along it).
+  virtual bool mirrorsNearSurfaceMeshOnly() const { return true; }
+
   /// Axis-aligned bounds of the surface.
   virtual void bounds(Vec3r& lo, Vec3r& hi) const = 0;
 

@@ -110,6 +110,156 @@ struct BoundaryParticles::Grid {
   }
 };
 
+/// A coarse cell grid over the static solids: per cell, a bit for each lattice whose
+/// rectangle and each boundary whose surface triangles may lie within reach of a point in
+/// the cell (the sample radius for lattices, twice the mirror range for mirror maps:
+/// Boundary::mirrorsNearSurfaceMeshOnly()), so that
+/// update() skips the planes and boundaries that cannot matter to a particle. Moving
+/// solids and unbounded planes have their bit set everywhere. Conservative: a cell is
+/// marked when its centre lies within reach plus its half diagonal, so a particle's
+/// lists are exactly those of the full scan, in the same order.
+struct BoundaryParticles::Proximity {
+  static constexpr std::size_t kMaxBits = 64;
+  Real sampleRadius = -1, mirrorRange = -1;
+  std::size_t boundaryCount = 0, latticeCount = 0;
+  bool usable = false;  ///< false: more than 64 lattices or boundaries, every bit everywhere
+  Vec3r origin = Vec3r::Zero();
+  Real cellSize = 1, inverseCellSize = 1;
+  long dims[3] = {0, 0, 0};
+  std::uint64_t everywhere = 0;  ///< boundaries marked in every cell (and outside the grid)
+  std::vector<std::uint64_t> lattices, boundaries;  // per cell
+
+  void lookup(const Vec3r& x, std::uint64_t& latticeBits, std::uint64_t& boundaryBits) const {
+    if (!usable) {
+      latticeBits = boundaryBits = ~std::uint64_t(0);
+      return;
+    }
+    long c[3];
+    for (int a = 0; a < 3; ++a) {
+      const Real f = std::floor((x[a] - origin[a]) * inverseCellSize);
+      if (!(f >= 0 && f < Real(dims[a]))) {  // beyond every static solid's reach
+        latticeBits = 0;
+        boundaryBits = everywhere;
+        return;
+      }
+      c[a] = static_cast<long>(f);
+    }
+    const long cell = (c[2] * dims[1] + c[1]) * dims[0] + c[0];
+    latticeBits = lattices[std::size_t(cell)];
+    boundaryBits = boundaries[std::size_t(cell)] | everywhere;
+  }
+};
+
+namespace {
+/// Distance from p to the triangle abc (Ericson, Real-Time Collision Detection 5.1.5).
+double distanceToTriangle(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  const Vec3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return ap.norm();
+  const Vec3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return bp.norm();
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (p - (a + (d1 / (d1 - d3)) * ab)).norm();
+  const Vec3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return cp.norm();
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (p - (a + (d2 / (d2 - d6)) * ac)).norm();
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return (p - (b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b))).norm();
+  const double denominator = 1 / (va + vb + vc);
+  return (p - (a + ab * (vb * denominator) + ac * (vc * denominator))).norm();
+}
+} // namespace
+
+void BoundaryParticles::makeProximity(const std::vector<BoundaryPtr>& boundaries, Real sampleRadius,
+                                      Real mirrorRange) {
+  auto proximity = std::make_unique<Proximity>();
+  Proximity& p = *proximity;
+  p.sampleRadius = sampleRadius;
+  p.mirrorRange = mirrorRange;
+  p.boundaryCount = boundaries.size();
+  p.latticeCount = mLattices.size();
+  mProximity = std::move(proximity);
+  if (boundaries.size() > Proximity::kMaxBits || mLattices.size() > Proximity::kMaxBits) return;
+  // The pieces to mark: lattice rectangles (grown by the sample radius) and the triangles of
+  // the static boundaries whose maps stay near them (grown by twice the mirror range).
+  struct Triangle {
+    Vec3d a, b, c;
+    double reach;
+    std::uint32_t bit;
+    bool lattice;
+  };
+  std::vector<Triangle> pieces;
+  for (std::size_t l = 0; l < mLattices.size(); ++l) {
+    const SampleLattice& q = mLattices[l].lattice;
+    const Vec3d c = q.center.cast<double>(), u = (q.halfU * q.axisU).cast<double>(), v = (q.halfV * q.axisV).cast<double>();
+    pieces.push_back({c - u - v, c + u - v, c + u + v, double(sampleRadius), std::uint32_t(l), true});
+    pieces.push_back({c - u - v, c + u + v, c - u + v, double(sampleRadius), std::uint32_t(l), true});
+  }
+  for (std::size_t b = 0; b < boundaries.size(); ++b) {
+    if (boundaries[b]->moves() || !boundaries[b]->mirrorsNearSurfaceMeshOnly()) {
+      p.everywhere |= std::uint64_t(1) << b;
+      continue;
+    }
+    const TriangleMesh mesh = boundaries[b]->surfaceMesh();
+    for (const auto& t : mesh.triangles)
+      pieces.push_back({mesh.vertices[t[0]].cast<double>(), mesh.vertices[t[1]].cast<double>(),
+                        mesh.vertices[t[2]].cast<double>(), 2 * double(mirrorRange), std::uint32_t(b), false});
+  }
+  Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::max()), hi = -lo;
+  for (const Triangle& t : pieces)
+    for (const Vec3d& x : {t.a, t.b, t.c}) {
+      lo = lo.cwiseMin(x - Vec3d::Constant(t.reach));
+      hi = hi.cwiseMax(x + Vec3d::Constant(t.reach));
+    }
+  if (pieces.empty()) {
+    p.usable = true;  // no static piece: nothing but the everywhere bits
+    p.dims[0] = p.dims[1] = p.dims[2] = 0;
+    return;
+  }
+  // Cells of the larger reach, at most ~4 M of them.
+  double cell = std::max(double(sampleRadius), 2 * double(mirrorRange));
+  const Vec3d extent = hi - lo;
+  while (cell > 0 && (std::ceil(extent.x() / cell) * std::ceil(extent.y() / cell) * std::ceil(extent.z() / cell)) > 4e6)
+    cell *= 1.5;
+  if (!(cell > 0)) return;
+  p.cellSize = Real(cell);
+  p.inverseCellSize = Real(1 / cell);
+  p.origin = lo.cast<Real>();
+  for (int a = 0; a < 3; ++a) p.dims[a] = std::max(1L, long(std::ceil(extent[a] / cell)));
+  const std::size_t cells = std::size_t(p.dims[0] * p.dims[1] * p.dims[2]);
+  p.lattices.assign(cells, 0);
+  p.boundaries.assign(cells, 0);
+  // A point x of a cell lies within reach of a piece if the cell's centre does within
+  // reach + half diagonal; the centre as the lookup's float arithmetic places it, with a
+  // margin for rounding.
+  const double halfDiagonal = 0.5 * std::sqrt(3.0) * cell * (1 + 1e-4);
+  const Vec3d origin = p.origin.cast<double>();
+  for (const Triangle& t : pieces) {
+    const double reach = t.reach + halfDiagonal;
+    long from[3], to[3];
+    for (int a = 0; a < 3; ++a) {
+      const double low = std::min({t.a[a], t.b[a], t.c[a]}) - reach, high = std::max({t.a[a], t.b[a], t.c[a]}) + reach;
+      from[a] = std::max(0L, long(std::floor((low - origin[a]) / cell)));
+      to[a] = std::min(p.dims[a] - 1, long(std::floor((high - origin[a]) / cell)));
+    }
+    std::vector<std::uint64_t>& bits = t.lattice ? p.lattices : p.boundaries;
+    const std::uint64_t bit = std::uint64_t(1) << t.bit;
+    for (long z = from[2]; z <= to[2]; ++z)
+      for (long y = from[1]; y <= to[1]; ++y)
+        for (long x = from[0]; x <= to[0]; ++x) {
+          const std::size_t index = std::size_t((z * p.dims[1] + y) * p.dims[0] + x);
+          if (bits[index] & bit) continue;
+          const Vec3d centre = origin + cell * Vec3d(double(x) + 0.5, double(y) + 0.5, double(z) + 0.5);
+          if (distanceToTriangle(centre, t.a, t.b, t.c) <= reach) bits[index] |= bit;
+        }
+  }
+  p.usable = true;
+}
+
 BoundaryParticles::BoundaryParticles() = default;
 BoundaryParticles::~BoundaryParticles() = default;
 BoundaryParticles::BoundaryParticles(BoundaryParticles&&) noexcept = default;
@@ -118,6 +268,7 @@ BoundaryParticles& BoundaryParticles::operator=(BoundaryParticles&&) noexcept = 
 void BoundaryParticles::sample(const std::vector<BoundaryPtr>& boundaries, Real maxGap,
                                Real sampleRadius) {
   mGap = maxGap;
+  mProximity.reset();
   mSamples.clear();
   mOwners.clear();
   mLattices.clear();
@@ -201,9 +352,11 @@ bool latticeRange(Real s, Real reach, Real half, long intervals, long first, lon
 } // namespace
 
 template <typename F>
-void BoundaryParticles::forEachSampleWithin(const Vec3r& x, Real radius, F&& visit) const {
+void BoundaryParticles::forEachSampleWithin(const Vec3r& x, Real radius, std::uint64_t lattices, F&& visit) const {
   const Real radius2 = radius * radius;
-  for (const LatticeEntry& entry : mLattices) {
+  for (std::size_t l = 0; l < mLattices.size(); ++l) {
+    if (l < Proximity::kMaxBits && !((lattices >> l) & 1u)) continue;
+    const LatticeEntry& entry = mLattices[l];
     const SampleLattice& lattice = entry.lattice;
     const Vec3r relative = x - lattice.center;
     const Real height = relative.dot(entry.normal);
@@ -258,6 +411,10 @@ void BoundaryParticles::update(const Particles& particles, const std::vector<Bou
   placeMovingSamples(boundaries);
   const bool samples = withSamples && !mSamples.empty();
   const std::uint32_t boundaryCount = static_cast<std::uint32_t>(boundaries.size());
+  if (!mProximity || mProximity->sampleRadius != sampleRadius || mProximity->mirrorRange != mirrorRange ||
+      mProximity->boundaryCount != boundaries.size() || mProximity->latticeCount != mLattices.size())
+    makeProximity(boundaries, sampleRadius, mirrorRange);
+  const Proximity& proximity = *mProximity;
 
   // Pass 1: per chunk, the maps and sample indices, and per particle their counts
   // (stored temporarily in the offset arrays at i + 1).
@@ -267,10 +424,13 @@ void BoundaryParticles::update(const Particles& particles, const std::vector<Bou
     for (std::size_t i = c * kChunk; i < end; ++i) {
       const Vec3r& x = particles.position[i];
       const std::size_t mapsBefore = chunk.maps.size(), samplesBefore = chunk.samples.size();
+      std::uint64_t nearLattices = 0, nearBoundaries = 0;
+      proximity.lookup(x, nearLattices, nearBoundaries);
       if (withMirrors)
-        for (std::uint32_t b = 0; b < boundaryCount; ++b) boundaries[b]->mirrorMaps(x, mirrorRange, b, chunk.maps);
+        for (std::uint32_t b = 0; b < boundaryCount; ++b)
+          if (b >= Proximity::kMaxBits || ((nearBoundaries >> b) & 1u)) boundaries[b]->mirrorMaps(x, mirrorRange, b, chunk.maps);
       if (samples)
-        forEachSampleWithin(x, sampleRadius, [&](std::uint32_t k) { chunk.samples.push_back(k); });
+        forEachSampleWithin(x, sampleRadius, nearLattices, [&](std::uint32_t k) { chunk.samples.push_back(k); });
       mMirrorOffsets[i + 1] = static_cast<std::uint32_t>(chunk.maps.size() - mapsBefore);
       mSampleNeighbors.offsets[i + 1] = static_cast<std::uint32_t>(chunk.samples.size() - samplesBefore);
     }

@@ -77,9 +77,15 @@ public:
   std::vector<std::size_t> samplesPerBoundary(std::size_t boundaryCount) const;
 
 private:
-  /// Calls visit(k) for every type I sample k within radius of x.
+  /// Calls visit(k) for every type I sample k within radius of x; lattices only those
+  /// whose bit is set in `lattices`.
   template <typename F>
-  void forEachSampleWithin(const Vec3r& x, Real radius, F&& visit) const;
+  void forEachSampleWithin(const Vec3r& x, Real radius, std::uint64_t lattices, F&& visit) const;
+
+  /// Which lattices and boundaries can matter to a point (made by update() for its radii).
+  struct Proximity;
+  void makeProximity(const std::vector<BoundaryPtr>& boundaries, Real sampleRadius, Real mirrorRange);
+  std::unique_ptr<Proximity> mProximity;
 
   struct LatticeEntry {
     SampleLattice lattice;

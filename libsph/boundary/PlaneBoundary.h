@@ -30,6 +30,7 @@ public:
   /// Behind the plane (within the rectangle for a finite one, up to one range deep).
   bool isInside(const Vec3r& x) const override;
   TriangleMesh surfaceMesh() const override;
+  bool mirrorsNearSurfaceMeshOnly() const override { return mFinite; }
   void bounds(Vec3r& lo, Vec3r& hi) const override;
 
   const Vec3r& normal() const { return mNormal; }

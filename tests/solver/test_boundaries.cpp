@@ -167,10 +167,13 @@ TEST(BoxBoundary, EdgeAndCornerSamplesAppearOnce) {
   }
 }
 
-TEST(BoundaryParticles, SampleListsEqualBruteForceOnWallsSlopeAndMesh) {
+TEST(BoundaryParticles, SampleListsAndMirrorMapsEqualAFullScanOnWallsSlopeMeshAndPlane) {
   // Type I lists come from the walls' lattices (plane coordinates) and from a
-  // cell grid (mesh samples): every list must be exactly the brute-force set of
-  // samples within the radius, and the samples exactly the boundaries' samples.
+  // cell grid (mesh samples), both behind a coarse proximity grid that skips the
+  // lattices and boundaries out of reach: every list must be exactly the
+  // brute-force set of samples within the radius, every particle's mirror maps
+  // exactly those of asking every boundary in turn, and the samples exactly the
+  // boundaries' samples. Particles also above the open tank's rim and outside it.
   std::vector<BoundaryPtr> boundaries;
   boundaries.push_back(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(0.6f, 0.3f, 0.3f)));
   boundaries.push_back(BoxBoundary::solid(Vec3r(0.2f, 0.15f, 0.08f), Vec3r(0.15f, 0.1f, 0.02f),
@@ -181,7 +184,8 @@ TEST(BoundaryParticles, SampleListsEqualBruteForceOnWallsSlopeAndMesh) {
   options.transform.translation = Vec3r(0.4f, 0.1f, 0.0f);
   boundaries.push_back(MeshBoundary::load(cubePath, options));
   std::filesystem::remove(cubePath);
-  const Real gap = 0.006f, radius = 0.011f;
+  boundaries.push_back(PlaneBoundary::infinite(Vec3r(0, 0, 0.25f), Vec3r(0, 0, -1), 0.1f));  // mirrors everywhere
+  const Real gap = 0.006f, radius = 0.011f, mirrorRange = 0.02f;
   BoundaryParticles virtualParticles;
   virtualParticles.sample(boundaries, gap, radius);
   const std::vector<Vec3r>& samples = virtualParticles.samplePositions();
@@ -199,11 +203,26 @@ TEST(BoundaryParticles, SampleListsEqualBruteForceOnWallsSlopeAndMesh) {
   std::mt19937 random(11);
   std::uniform_real_distribution<float> u(-0.02f, 1.02f);
   for (std::uint32_t k = 0; k < 3000; ++k)
-    particles.add(Vec3r(0.6f * u(random), 0.3f * u(random), 0.3f * u(random)), Vec3r::Zero(), k);
+    particles.add(Vec3r(0.6f * u(random), 0.3f * u(random), 0.33f * u(random)), Vec3r::Zero(), k);
   // Some exactly on a wall lattice and on mesh samples.
   for (std::size_t k = 0; k < samples.size(); k += samples.size() / 50)
     particles.add(samples[k], Vec3r::Zero(), std::uint32_t(particles.size()));
-  virtualParticles.update(particles, boundaries, radius, 0.02f, true, true);
+  virtualParticles.update(particles, boundaries, radius, mirrorRange, true, true);
+  std::size_t withMaps = 0;
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    std::vector<MirrorMap> expectedMaps;
+    for (std::uint32_t b = 0; b < boundaries.size(); ++b)
+      boundaries[b]->mirrorMaps(particles.position[i], mirrorRange, b, expectedMaps);
+    ASSERT_EQ(virtualParticles.mirrorCount(i), expectedMaps.size()) << "particle " << i;
+    for (std::size_t m = 0; m < expectedMaps.size(); ++m) {
+      const MirrorMap& found = virtualParticles.mirrors()[virtualParticles.mirrorOffsets()[i] + m];
+      EXPECT_EQ(found.boundary, expectedMaps[m].boundary);
+      EXPECT_EQ(found.linear, expectedMaps[m].linear);
+      EXPECT_EQ(found.offset, expectedMaps[m].offset);
+    }
+    withMaps += expectedMaps.empty() ? 0 : 1;
+  }
+  EXPECT_GT(withMaps, 500u);
   const NeighborLists& lists = virtualParticles.sampleNeighbors();
   std::size_t nonEmpty = 0;
   for (std::size_t i = 0; i < particles.size(); ++i) {
