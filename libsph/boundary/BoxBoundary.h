@@ -35,6 +35,9 @@ public:
   /// Tank: outside the box (through a wall); solid: inside the box.
   bool isInside(const Vec3r& x) const override;
   TriangleMesh surfaceMesh() const override;
+  /// An open tank's side walls mirror at any height above the rim (its inside test and
+  /// the guard treat them as going up without end): not bounded by its faces.
+  bool mirrorsNearSurfaceMeshOnly() const override { return !mTank || mClosedTop; }
   void bounds(Vec3r& lo, Vec3r& hi) const override;
 
   /// Exact for both kinds: a solid block is entered where the move first meets it

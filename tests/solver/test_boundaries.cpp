@@ -204,6 +204,10 @@ TEST(BoundaryParticles, SampleListsAndMirrorMapsEqualAFullScanOnWallsSlopeMeshAn
   std::uniform_real_distribution<float> u(-0.02f, 1.02f);
   for (std::uint32_t k = 0; k < 3000; ++k)
     particles.add(Vec3r(0.6f * u(random), 0.3f * u(random), 0.33f * u(random)), Vec3r::Zero(), k);
+  // Spray far above the open tank's rim, next to its side walls (which mirror at any height).
+  std::uniform_real_distribution<float> high(0.35f, 0.6f), wall(-0.005f, 0.015f);
+  for (std::uint32_t k = 0; k < 300; ++k)
+    particles.add(Vec3r(wall(random), 0.3f * u(random), high(random)), Vec3r::Zero(), std::uint32_t(particles.size()));
   // Some exactly on a wall lattice and on mesh samples.
   for (std::size_t k = 0; k < samples.size(); k += samples.size() / 50)
     particles.add(samples[k], Vec3r::Zero(), std::uint32_t(particles.size()));
