@@ -11,8 +11,8 @@
 //   places where the row comes within gap / 2 of the other two edges: closer in,
 //   the edge's own samples cover. So the count is area / gap^2 plus the edges'
 //   share, whatever the shape: a thin triangle is no longer sampled as if it were
-//   square (the 1-to-4 subdivision this replaces gave a 1:50 triangle 50x its area's
-//   samples, and rounded the segments up to a power of two).
+//   square (the 1-to-4 subdivision this replaces gave a long 1:50 triangle ~80x its
+//   area's samples, and rounded the segments up to a power of two).
 #include "libsph/boundary/MeshBoundary.h"
 
 #include "libsph/boundary/BoundarySampling.h"

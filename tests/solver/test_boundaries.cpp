@@ -310,8 +310,8 @@ void expectEachSampleOnce(const std::vector<Vec3r>& samples, Real gap, const std
 }
 
 TEST(MeshSampling, LargeTrianglesAreSampledAreaTrue) {
-  // The 1-to-4 subdivision sampled a thin triangle as if it were square (a 1:50
-  // strip got ~50x its area's samples); rows keep the count at area / gap^2 plus
+  // The 1-to-4 subdivision sampled a thin triangle as if it were square (the 1:50
+  // strip below got ~80x its area's samples); rows keep the count at area / gap^2 plus
   // the edges' share for any shape, with no point of the surface farther than the
   // gap from a sample (a square wall: gap / sqrt 2, as the walls' lattices).
   const Real gap = 0.01f;
