@@ -16,7 +16,9 @@
 ///          images of itself and of its fluid neighbours under those maps that
 ///          fall within h ("rebuilt each step").
 /// Only the boundary layer is touched: `layer` lists the fluid particles that
-/// have any sample or mirror, so the boundary passes skip the bulk.
+/// have any sample or mirror, so the boundary passes skip the bulk. A coarse
+/// proximity grid over the static solids tells each particle which lattices and
+/// solids can be within reach, so update() asks only those (same lists as asking all).
 #pragma once
 
 #include "libsph/NeighborSearch.h"
