@@ -1,5 +1,7 @@
 #include "libsph/boundary/BoundaryParticles.h"
 
+#include "libsph/boundary/TriangleBand.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -124,7 +126,7 @@ struct BoundaryParticles::Proximity {
   std::size_t boundaryCount = 0, latticeCount = 0;
   bool usable = false;  ///< false: more than 64 lattices or boundaries, every bit everywhere
   Vec3r origin = Vec3r::Zero();
-  Real cellSize = 1, inverseCellSize = 1;
+  Real inverseCellSize = 1;
   long dims[3] = {0, 0, 0};
   std::uint64_t everywhere = 0;  ///< boundaries marked in every cell (and outside the grid)
   std::vector<std::uint64_t> lattices, boundaries;  // per cell
@@ -149,30 +151,6 @@ struct BoundaryParticles::Proximity {
     boundaryBits = boundaries[std::size_t(cell)] | everywhere;
   }
 };
-
-namespace {
-/// Distance from p to the triangle abc (Ericson, Real-Time Collision Detection 5.1.5).
-double distanceToTriangle(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
-  const Vec3d ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return ap.norm();
-  const Vec3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return bp.norm();
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (p - (a + (d1 / (d1 - d3)) * ab)).norm();
-  const Vec3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return cp.norm();
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (p - (a + (d2 / (d2 - d6)) * ac)).norm();
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return (p - (b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b))).norm();
-  const double denominator = 1 / (va + vb + vc);
-  return (p - (a + ab * (vb * denominator) + ac * (vc * denominator))).norm();
-}
-} // namespace
 
 void BoundaryParticles::makeProximity(const std::vector<BoundaryPtr>& boundaries, Real sampleRadius,
                                       Real mirrorRange) {
@@ -226,7 +204,6 @@ void BoundaryParticles::makeProximity(const std::vector<BoundaryPtr>& boundaries
   while (cell > 0 && (std::ceil(extent.x() / cell) * std::ceil(extent.y() / cell) * std::ceil(extent.z() / cell)) > 4e6)
     cell *= 1.5;
   if (!(cell > 0)) return;
-  p.cellSize = Real(cell);
   p.inverseCellSize = Real(1 / cell);
   p.origin = lo.cast<Real>();
   for (int a = 0; a < 3; ++a) p.dims[a] = std::max(1L, long(std::ceil(extent[a] / cell)));
@@ -254,7 +231,7 @@ void BoundaryParticles::makeProximity(const std::vector<BoundaryPtr>& boundaries
           const std::size_t index = std::size_t((z * p.dims[1] + y) * p.dims[0] + x);
           if (bits[index] & bit) continue;
           const Vec3d centre = origin + cell * Vec3d(double(x) + 0.5, double(y) + 0.5, double(z) + 0.5);
-          if (distanceToTriangle(centre, t.a, t.b, t.c) <= reach) bits[index] |= bit;
+          if ((closestOnTriangle(centre, t.a, t.b, t.c) - centre).norm() <= reach) bits[index] |= bit;
         }
   }
   p.usable = true;

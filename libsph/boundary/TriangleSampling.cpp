@@ -21,6 +21,7 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <set>
 
 namespace cascade {
 
@@ -53,15 +54,15 @@ std::vector<Vec3r> sampleTriangles(const TriangleMesh& mesh, Real maxGap, std::s
   for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
     if (used[v]) samples.push_back(mesh.vertices[v].cast<Real>());
   // Edges: once each, the count from the length alone (both triangles agree).
-  std::map<std::pair<std::uint32_t, std::uint32_t>, char> edges;
+  std::set<std::pair<std::uint32_t, std::uint32_t>> edges;
   for (const auto& tri : mesh.triangles)
     for (int e = 0; e < 3; ++e) {
       std::uint32_t a = canonical[tri[e]], b = canonical[tri[(e + 1) % 3]];
       if (a > b) std::swap(a, b);
-      if (a != b) edges.emplace(std::make_pair(a, b), 0);
+      if (a != b) edges.emplace(a, b);
     }
-  for (const auto& entry : edges) {
-    const Vec3d a = vertex(entry.first.first), b = vertex(entry.first.second);
+  for (const auto& [first, second] : edges) {
+    const Vec3d a = vertex(first), b = vertex(second);
     const long n = segmentsFor((b - a).norm(), gap, 2);
     for (long q = 1; q < n; ++q) samples.push_back((a + (double(q) / double(n)) * (b - a)).cast<Real>());
   }

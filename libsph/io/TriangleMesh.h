@@ -41,13 +41,13 @@ enum class ObjAxes {
   ZUpToYUp,  ///< a z-up point (x, y, z) stored as (x, z, -y), for y-up importers
 };
 
+/// Area of the mesh's triangles (m^2 for a mesh in metres).
+double surfaceArea(const TriangleMesh& mesh);
+
 /// Writes OBJ ("v", "vn", "g", "f a//a b//b c//c"), atomically. Numbers have 9
 /// significant digits (trailing zeros dropped): they read back to the same float. Blocks of
 /// lines are formatted in parallel (TBB) and written in order, so the file is the
 /// same as a serial writer's.
-/// Area of the mesh's triangles (m^2 for a mesh in metres).
-double surfaceArea(const TriangleMesh& mesh);
-
 void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh);
 /// The same with extra comment lines after the first ("# up: y"; one per '\n'-separated
 /// line), and the coordinates mapped by `axes` on the way out.
