@@ -55,10 +55,10 @@ public:
   /// Centre of mass (a rigid body) or the motion's origin, world.
   Vec3d center() const { return mVelocity.center; }
   /// Fastest speed of any point of the solid now, m/s (for the time step).
-  double maxSurfaceSpeed() const;
+  double maxSurfaceSpeed() const override;
   /// Fastest speed of any point of a prescribed motion over all time (0 for a rigid
   /// body), m/s: part of the scene's expected speed.
-  double maxMotionSpeed() const;
+  double maxMotionSpeed() const override;
 
   /// Moves the solid to time t (a kinematic motion) or by one step dt under the
   /// fluid's force and torque (about the centre of mass) plus gravity, clearing

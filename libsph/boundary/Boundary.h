@@ -125,8 +125,9 @@ public:
   }
 
   // --- motion (a solid at rest answers with the defaults) ---
-  /// True if the solid moves (MovingBoundary): its type I samples are kept in its
-  /// reference frame and placed by pose() each step.
+  /// True if the solid moves (MovingBoundary, DeformingMeshBoundary): its type I samples
+  /// are kept in its reference frame and placed by pose() each step, or made per frame
+  /// interval (deformation()).
   virtual bool moves() const { return false; }
   /// Pose of the reference geometry this step (identity for a solid at rest).
   virtual RigidPose pose() const { return RigidPose(); }
@@ -138,6 +139,29 @@ public:
   /// Type I samples in the reference frame (a moving solid's; the static ones are
   /// sampleSurfaceLattices()'s, already in world coordinates).
   virtual void sampleReference(Real maxGap, std::vector<Vec3r>& samples) const { sampleSurface(maxGap, samples); }
+  /// Fastest speed of any point of the solid now, m/s (for the time step).
+  virtual double maxSurfaceSpeed() const { return 0; }
+  /// Fastest speed any point of a prescribed motion or deformation reaches over all
+  /// time, m/s (part of the scene's expected speed; 0 for a rigid body, moved by the water).
+  virtual double maxMotionSpeed() const { return 0; }
+
+  /// A solid that changes shape (a deforming mesh sequence) is between two frames of
+  /// its sequence: its type I samples are made per frame interval, as the same surface
+  /// points at the interval's start and end (sampleDeformation), and placed each step
+  /// by linear interpolation, x = start + weight (end - start), moving at
+  /// (end - start) rate. A rigid solid answers interval -1.
+  struct Deformation {
+    long interval = -1;  ///< changes when the solid enters another frame interval (re-sample then)
+    Real weight = 0;     ///< 0 at the interval's start, 1 at its end
+    Real rate = 0;       ///< 1 / the interval's duration, 1/s (0 while a frame holds)
+  };
+  virtual Deformation deformation() const { return {}; }
+  /// The samples of the current frame interval at its start and at its end (the same count).
+  virtual void sampleDeformation(Real maxGap, std::vector<Vec3r>& start, std::vector<Vec3r>& end) const {
+    (void)maxGap;
+    (void)start;
+    (void)end;
+  }
 
   /// The solid's surface as triangles in world coordinates (one group, named name()).
   virtual TriangleMesh surfaceMesh() const = 0;

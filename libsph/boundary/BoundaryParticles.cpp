@@ -278,34 +278,96 @@ void BoundaryParticles::sample(const std::vector<BoundaryPtr>& boundaries, Real 
     mGrid->build(mSamples, mOwners, base, sampleRadius);
   }
   // Moving solids last: sampled once in their reference frames, each with a grid
-  // over its reference samples (queries are turned into the solid's frame).
+  // over its reference samples (queries are turned into the solid's frame); deforming
+  // ones for their current frame interval.
+  mSampleRadius = sampleRadius;
   mMoving.clear();
   mMovingBegin = static_cast<std::uint32_t>(mSamples.size());
   for (std::size_t b = 0; b < boundaries.size(); ++b) {
     if (!boundaries[b]->moves()) continue;
     MovingSet set;
     set.boundary = static_cast<std::uint32_t>(b);
-    set.first = static_cast<std::uint32_t>(mSamples.size());
-    boundaries[b]->sampleReference(maxGap, set.reference);
-    if (set.reference.empty()) continue;
-    std::vector<std::uint32_t> owners(set.reference.size(), set.boundary);
-    set.grid = std::make_shared<Grid>();
-    set.grid->build(set.reference, owners, 0, sampleRadius);
-    mSamples.insert(mSamples.end(), set.reference.begin(), set.reference.end());
-    mOwners.insert(mOwners.end(), owners.begin(), owners.end());
+    if (boundaries[b]->deformation().interval != -1) {
+      sampleDeforming(set, *boundaries[b]);
+    } else {
+      boundaries[b]->sampleReference(maxGap, set.reference);
+      if (set.reference.empty()) continue;
+      std::vector<std::uint32_t> owners(set.reference.size(), set.boundary);
+      set.grid = std::make_shared<Grid>();
+      set.grid->build(set.reference, owners, 0, sampleRadius);
+    }
     mMoving.push_back(std::move(set));
   }
-  mMovingVelocity.assign(mSamples.size() - mMovingBegin, Vec3r::Zero());
+  layOutMovingSamples();
   placeMovingSamples(boundaries);
 }
 
+void BoundaryParticles::layOutMovingSamples() {
+  mSamples.resize(mMovingBegin);
+  mOwners.resize(mMovingBegin);
+  for (MovingSet& set : mMoving) {
+    set.first = static_cast<std::uint32_t>(mSamples.size());
+    mSamples.insert(mSamples.end(), set.reference.begin(), set.reference.end());
+    mOwners.resize(mSamples.size(), set.boundary);
+  }
+  mMovingVelocity.assign(mSamples.size() - mMovingBegin, Vec3r::Zero());
+}
+
+void BoundaryParticles::sampleDeforming(MovingSet& set, const Boundary& solid) const {
+  set.interval = solid.deformation().interval;
+  std::vector<Vec3r> start, end;
+  solid.sampleDeformation(mGap, start, end);
+  const std::size_t count = start.size();
+  set.middle.resize(count);
+  set.reach = 0;
+  for (std::size_t k = 0; k < count; ++k) {
+    set.middle[k] = Real(0.5) * (start[k] + end[k]);
+    set.reach = std::max(set.reach, Real(0.5) * (end[k] - start[k]).norm());
+  }
+  set.reach *= Real(1.0001);  // rounding of the interpolation
+  // The grid sorts the midpoints into cell order; the owner slots carry the permutation.
+  std::vector<std::uint32_t> order(count);
+  for (std::size_t k = 0; k < count; ++k) order[k] = static_cast<std::uint32_t>(k);
+  set.grid.reset();
+  set.reference.clear();
+  set.end.clear();
+  if (count == 0) return;
+  set.grid = std::make_shared<Grid>();
+  set.grid->build(set.middle, order, 0, mSampleRadius + set.reach);
+  set.reference.resize(count);
+  set.end.resize(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    set.reference[k] = start[order[k]];
+    set.end[k] = end[order[k]];
+  }
+}
+
 void BoundaryParticles::placeMovingSamples(const std::vector<BoundaryPtr>& boundaries) {
+  bool resampled = false;
+  for (MovingSet& set : mMoving)
+    if (set.interval != -1 && boundaries[set.boundary]->deformation().interval != set.interval) {
+      sampleDeforming(set, *boundaries[set.boundary]);
+      resampled = true;
+    }
+  if (resampled) layOutMovingSamples();
   for (MovingSet& set : mMoving) {
     const Boundary& solid = *boundaries[set.boundary];
+    const std::size_t count = set.reference.size();
+    if (set.interval != -1) {
+      // A deforming solid: between its interval's start and end.
+      const Boundary::Deformation d = solid.deformation();
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 4096), [&](const auto& range) {
+        for (std::size_t k = range.begin(); k != range.end(); ++k) {
+          const Vec3r move = set.end[k] - set.reference[k];
+          mSamples[set.first + k] = set.reference[k] + d.weight * move;
+          mMovingVelocity[set.first - mMovingBegin + k] = d.rate * move;
+        }
+      });
+      continue;
+    }
     set.pose = solid.pose();
     const Eigen::Matrix<Real, 3, 3> rotation = set.pose.rotation.cast<Real>();
     const Vec3r translation = set.pose.translation.cast<Real>();
-    const std::size_t count = set.reference.size();
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 4096), [&](const auto& range) {
       for (std::size_t k = range.begin(); k != range.end(); ++k) {
         const Vec3r x = rotation * set.reference[k] + translation;
@@ -356,6 +418,14 @@ void BoundaryParticles::forEachSampleWithin(const Vec3r& x, Real radius, std::ui
   }
   if (mGrid) mGrid->forEachWithin(x, radius, mSamples, visit);
   for (const MovingSet& set : mMoving) {
+    if (!set.grid) continue;
+    if (set.interval != -1) {
+      // A sample within radius now lies within radius + reach of its midpoint.
+      set.grid->forEachWithin(x, radius + set.reach, set.middle, [&](std::uint32_t k) {
+        if (squaredDistance(x, mSamples[set.first + k]) <= radius2) visit(set.first + k);
+      });
+      continue;
+    }
     // x in the solid's reference frame (a rigid motion keeps distances)
     const Vec3r local = (set.pose.rotation.transpose() * (x.cast<double>() - set.pose.translation)).cast<Real>();
     set.grid->forEachWithin(local, radius, set.reference, [&](std::uint32_t k) { visit(set.first + k); });

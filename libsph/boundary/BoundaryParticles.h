@@ -10,7 +10,9 @@
 ///          A moving solid's samples are kept in its reference frame with a
 ///          grid of their own (made once, never re-sampled for a rigid motion):
 ///          each step they are placed by the solid's pose (positions and
-///          velocities), and a particle's query is turned into the solid's frame;
+///          velocities), and a particle's query is turned into the solid's frame.
+///          A deforming solid's are made when it enters a frame interval, at the
+///          interval's start and end, and placed each step by interpolation;
 ///        - type II: for each fluid particle within kappa h of a boundary the
 ///          mirror maps it sees (compressed rows); its mirror particles are the
 ///          images of itself and of its fluid neighbours under those maps that
@@ -96,14 +98,24 @@ private:
   };
   struct Grid;
   std::vector<LatticeEntry> mLattices;
-  /// The samples of one moving solid: reference positions (in its grid's cell
-  /// order) at mSamples[first ..), placed each step.
+  /// The samples of one moving solid at mSamples[first ..), placed each step: a rigid
+  /// one's reference positions (in its grid's cell order); a deforming one's positions
+  /// at its frame interval's start (`reference`) and end, indexed by a grid over their
+  /// midpoints whose queries reach `reach` (half the farthest move) further.
   struct MovingSet {
     std::uint32_t boundary = 0, first = 0;
     std::vector<Vec3r> reference;
     std::shared_ptr<Grid> grid;
     RigidPose pose;
+    long interval = -1;  ///< the deforming solid's frame interval the samples are made for (-1: rigid)
+    std::vector<Vec3r> end, middle;
+    Real reach = 0;
   };
+  /// Makes a deforming solid's samples for its current frame interval.
+  void sampleDeforming(MovingSet& set, const Boundary& solid) const;
+  /// Lays the moving sets' samples out after the static ones, in order.
+  void layOutMovingSamples();
+  Real mSampleRadius = 0;
   std::vector<MovingSet> mMoving;
   std::uint32_t mMovingBegin = std::numeric_limits<std::uint32_t>::max();
   std::vector<Vec3r> mMovingVelocity;

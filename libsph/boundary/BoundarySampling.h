@@ -72,7 +72,8 @@ inline void sampleRectangle(const Vec3r& center, const Vec3r& axisU, const Vec3r
   SampleLattice::rectangle(center, axisU, axisV, halfU, halfV, maxGap).append(samples);
 }
 
-/// Removes samples closer than `tolerance` to an earlier one (keeps first occurrences, in order).
-void removeDuplicateSamples(std::vector<Vec3r>& samples, Real tolerance);
+/// Removes samples closer than `tolerance` to an earlier one (keeps first occurrences, in
+/// order); `kept` (if given) receives the indices of the samples kept.
+void removeDuplicateSamples(std::vector<Vec3r>& samples, Real tolerance, std::vector<std::size_t>* kept = nullptr);
 
 } // namespace cascade

@@ -29,6 +29,7 @@
 #include <map>
 #include <mutex>
 #include <ostream>
+#include <stdexcept>
 #include <unordered_map>
 
 namespace cascade {
@@ -155,6 +156,11 @@ struct MeshBoundary::Impl {
   std::vector<Vec3d> a, b, c;      // triangle corners (double for the winding number)
   std::vector<Vec3d> faceNormal;
   Vec3r lo = Vec3r::Zero(), hi = Vec3r::Zero();
+  Vec3d boundsLo = Vec3d::Zero(), boundsHi = Vec3d::Zero();  // the same, unrounded
+  // How far the vertices may move from where the grids were built (moveVertices):
+  // the grids list each triangle as if it were that much larger.
+  double slack = 0;
+  std::vector<Eigen::Vector3f> builtVertices;
   // Uniform grid of triangles (bounding boxes) for closest-point queries.
   Vec3d origin = Vec3d::Zero();
   double cellSize = 1;
@@ -163,7 +169,7 @@ struct MeshBoundary::Impl {
   // The mirror queries' narrow band (TriangleBand.h), built by the first query
   // of a range; queries of another range take the general grid above.
   mutable std::mutex bandMutex;
-  mutable std::unique_ptr<const TriangleBand> bandOwner;
+  mutable std::unique_ptr<TriangleBand> bandOwner;
   mutable std::atomic<const TriangleBand*> band{nullptr};
 
   const TriangleBand* bandFor(double range) const {
@@ -172,7 +178,7 @@ struct MeshBoundary::Impl {
       std::lock_guard<std::mutex> lock(bandMutex);
       ready = band.load(std::memory_order_acquire);
       if (!ready) {
-        bandOwner = std::make_unique<const TriangleBand>(a, b, c, range);
+        bandOwner = std::make_unique<TriangleBand>(a, b, c, range, slack);
         ready = bandOwner.get();
         band.store(ready, std::memory_order_release);
       }
@@ -180,11 +186,11 @@ struct MeshBoundary::Impl {
     return ready->range() == range ? ready : nullptr;
   }
 
-  void build() {
+  /// Corners, face normals and bounds from mesh.vertices.
+  void updateCorners() {
     const std::size_t n = mesh.triangles.size();
     a.resize(n); b.resize(n); c.resize(n); faceNormal.resize(n);
     Vec3d lo3 = Vec3d::Constant(1e300), hi3 = -lo3;
-    double edgeSum = 0;
     for (std::size_t t = 0; t < n; ++t) {
       a[t] = mesh.vertices[mesh.triangles[t][0]].cast<double>();
       b[t] = mesh.vertices[mesh.triangles[t][1]].cast<double>();
@@ -193,10 +199,21 @@ struct MeshBoundary::Impl {
       faceNormal[t] = normal.norm() > 0 ? Vec3d(normal.normalized()) : Vec3d(Vec3d::UnitZ());
       lo3 = lo3.cwiseMin(a[t]).cwiseMin(b[t]).cwiseMin(c[t]);
       hi3 = hi3.cwiseMax(a[t]).cwiseMax(b[t]).cwiseMax(c[t]);
-      edgeSum += (b[t] - a[t]).norm() + (c[t] - b[t]).norm() + (a[t] - c[t]).norm();
     }
+    boundsLo = lo3;
+    boundsHi = hi3;
     lo = lo3.cast<Real>();
     hi = hi3.cast<Real>();
+  }
+
+  void build() {
+    const std::size_t n = mesh.triangles.size();
+    updateCorners();
+    builtVertices = slack > 0 ? mesh.vertices : std::vector<Eigen::Vector3f>();
+    double edgeSum = 0;
+    for (std::size_t t = 0; t < n; ++t)
+      edgeSum += (b[t] - a[t]).norm() + (c[t] - b[t]).norm() + (a[t] - c[t]).norm();
+    const Vec3d lo3 = boundsLo - Vec3d::Constant(slack), hi3 = boundsHi + Vec3d::Constant(slack);
     const Vec3d extent = hi3 - lo3;
     cellSize = std::max(2.0 * edgeSum / (3.0 * double(std::max<std::size_t>(n, 1))), extent.maxCoeff() / 64.0);
     if (!(cellSize > 0)) cellSize = 1;
@@ -205,7 +222,8 @@ struct MeshBoundary::Impl {
     const std::size_t cells = std::size_t(dims[0]) * dims[1] * dims[2];
     std::vector<std::vector<std::uint32_t>> lists(cells);
     for (std::size_t t = 0; t < n; ++t) {
-      const Vec3d tlo = a[t].cwiseMin(b[t]).cwiseMin(c[t]), thi = a[t].cwiseMax(b[t]).cwiseMax(c[t]);
+      const Vec3d tlo = a[t].cwiseMin(b[t]).cwiseMin(c[t]) - Vec3d::Constant(slack),
+                  thi = a[t].cwiseMax(b[t]).cwiseMax(c[t]) + Vec3d::Constant(slack);
       long l[3], u[3];
       for (int k = 0; k < 3; ++k) {
         l[k] = long(std::floor((tlo[k] - origin[k]) / cellSize));
@@ -285,14 +303,34 @@ struct MeshBoundary::Impl {
 MeshBoundary::MeshBoundary() : mImpl(std::make_unique<Impl>()) {}
 MeshBoundary::~MeshBoundary() = default;
 
-std::unique_ptr<MeshBoundary> MeshBoundary::fromMesh(TriangleMesh worldMesh, const std::string& context) {
+std::unique_ptr<MeshBoundary> MeshBoundary::fromMesh(TriangleMesh worldMesh, const std::string& context, double slack) {
   if (worldMesh.triangles.empty()) throw InputError(context + ": mesh has no triangles");
   std::unique_ptr<MeshBoundary> boundary(new MeshBoundary());
   worldMesh.groups.clear();
   worldMesh.normals.clear();
   boundary->mImpl->mesh = std::move(worldMesh);
+  boundary->mImpl->slack = std::max(slack, 0.0);
   boundary->mImpl->build();
   return boundary;
+}
+
+void MeshBoundary::moveVertices(const std::vector<Eigen::Vector3f>& vertices) {
+  Impl& m = *mImpl;
+  if (vertices.size() != m.mesh.vertices.size())
+    throw std::invalid_argument("MeshBoundary::moveVertices: " + std::to_string(vertices.size()) + " vertices for a mesh of " +
+                                std::to_string(m.mesh.vertices.size()));
+  double moved = 0;
+  for (std::size_t v = 0; v < vertices.size() && !m.builtVertices.empty(); ++v)
+    moved = std::max(moved, double((vertices[v] - m.builtVertices[v]).norm()));
+  m.mesh.vertices = vertices;
+  if (m.builtVertices.empty() || moved > m.slack) {  // beyond what the grids allow: rebuild them
+    m.band.store(nullptr, std::memory_order_release);
+    m.bandOwner.reset();
+    m.build();
+    return;
+  }
+  m.updateCorners();
+  if (m.bandOwner) m.bandOwner->refit();
 }
 
 std::unique_ptr<MeshBoundary> MeshBoundary::load(const std::filesystem::path& path,
@@ -425,6 +463,10 @@ bool MeshBoundary::closestPoint(const Vec3r& x, Real maxDistance, Vec3r& point, 
   point = q.cast<Real>();
   normal = mImpl->faceNormal[t].cast<Real>();
   return true;
+}
+
+long MeshBoundary::closestTriangle(const Vec3d& x, double maxDistance, Vec3d& point) const {
+  return mImpl->closest(x, maxDistance, point);
 }
 
 TriangleMesh MeshBoundary::surfaceMesh() const {

@@ -17,6 +17,7 @@
 
 #include "libsph/boundary/Boundary.h"
 
+#include <array>
 #include <filesystem>
 #include <memory>
 
@@ -54,6 +55,22 @@ std::size_t fillMeshHoles(TriangleMesh& mesh, const std::string& context);
 std::vector<Vec3r> sampleTriangles(const TriangleMesh& mesh, Real maxGap,
                                    std::size_t* rowSampledTriangles = nullptr);
 
+/// A point of a mesh's surface as a weighted sum of (up to) three of its vertices, so
+/// that it can be found again on the same mesh with its vertices moved (a deforming
+/// sequence's next frame).
+struct SurfacePoint {
+  std::array<std::uint32_t, 3> vertex{0, 0, 0};
+  std::array<double, 3> weight{1, 0, 0};
+
+  Vec3d on(const std::vector<Eigen::Vector3f>& positions) const {
+    return weight[0] * positions[vertex[0]].cast<double>() + weight[1] * positions[vertex[1]].cast<double>() +
+           weight[2] * positions[vertex[2]].cast<double>();
+  }
+};
+
+/// sampleTriangles()'s samples as surface points, in the same order.
+std::vector<SurfacePoint> sampleTrianglePoints(const TriangleMesh& mesh, Real maxGap);
+
 class MeshBoundary final : public Boundary {
 public:
   /// Loads, places, simplifies, closes. Logs the triangle counts to `log`
@@ -61,8 +78,15 @@ public:
   static std::unique_ptr<MeshBoundary> load(const std::filesystem::path& path,
                                             const MeshObstacleOptions& options,
                                             std::ostream* log = nullptr);
-  /// From a mesh already in world coordinates (closed, outward normals).
-  static std::unique_ptr<MeshBoundary> fromMesh(TriangleMesh worldMesh, const std::string& context);
+  /// From a mesh already in world coordinates (closed, outward normals). With `slack` > 0
+  /// its search grids allow every vertex to move by up to that much (moveVertices()).
+  static std::unique_ptr<MeshBoundary> fromMesh(TriangleMesh worldMesh, const std::string& context,
+                                                double slack = 0);
+
+  /// Moves the vertices (the same triangles): a deforming mesh between two frames. Within
+  /// the slack of fromMesh() of where it was built, the grids are kept (their triangles'
+  /// bounds updated); beyond it they are rebuilt. Not during queries.
+  void moveVertices(const std::vector<Eigen::Vector3f>& vertices);
 
   ~MeshBoundary() override;
 
@@ -85,6 +109,9 @@ public:
   double windingNumber(const Vec3r& x) const;
   /// Closest point on the surface within maxDistance; false if none.
   bool closestPoint(const Vec3r& x, Real maxDistance, Vec3r& point, Vec3r& normal) const;
+  /// The triangle (index into mesh().triangles) with the closest point within maxDistance
+  /// (the lowest index among equals), that point in `point`; -1 if none.
+  long closestTriangle(const Vec3d& x, double maxDistance, Vec3d& point) const;
 
   std::size_t triangleCount() const;
   const TriangleMesh& mesh() const;

@@ -29,29 +29,28 @@ Vec3d closestOnTriangle(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Ve
 }
 
 TriangleBand::TriangleBand(const std::vector<Vec3d>& a, const std::vector<Vec3d>& b, const std::vector<Vec3d>& c,
-                           double range)
+                           double range, double slack)
     : mA(a), mB(b), mC(c), mRange(range) {
   const std::size_t n = a.size();
-  mBoxLo.resize(n);
-  mBoxHi.resize(n);
+  refit();
   Vec3d lo = Vec3d::Constant(1e300), hi = -lo;
   for (std::size_t t = 0; t < n; ++t) {
-    mBoxLo[t] = a[t].cwiseMin(b[t]).cwiseMin(c[t]);
-    mBoxHi[t] = a[t].cwiseMax(b[t]).cwiseMax(c[t]);
     lo = lo.cwiseMin(mBoxLo[t]);
     hi = hi.cwiseMax(mBoxHi[t]);
   }
   if (n == 0 || !(range > 0)) return;
+  slack = std::max(slack, 0.0);
+  const double margin = range + slack;  // the grid covers the bounds grown by this
   mCellSize = 0.5 * range;
   // At most ~8 M cells (a huge mesh with a tiny range): coarser cells stay correct.
-  const Vec3d extent = hi - lo + Vec3d::Constant(2 * range);
+  const Vec3d extent = hi - lo + Vec3d::Constant(2 * margin);
   const double cells = extent.x() * extent.y() * extent.z() / (mCellSize * mCellSize * mCellSize);
   if (cells > 8e6) mCellSize *= std::cbrt(cells / 8e6) * 1.001;
   mInverseCellSize = 1.0 / mCellSize;
-  mOrigin = lo - Vec3d::Constant(range);
+  mOrigin = lo - Vec3d::Constant(margin);
   for (int k = 0; k < 3; ++k) mDims[k] = long(std::floor(extent[k] * mInverseCellSize)) + 1;
   const std::size_t cellCount = std::size_t(mDims[0]) * mDims[1] * mDims[2];
-  const double reach = range + 0.5 * std::sqrt(3.0) * mCellSize;
+  const double reach = margin + 0.5 * std::sqrt(3.0) * mCellSize;
 
   // Per triangle, the cells it serves (in cell order), in parallel over triangles.
   // Isolated: the band may be built lazily inside a parallel query loop while
@@ -79,6 +78,16 @@ TriangleBand::TriangleBand(const std::vector<Vec3d>& a, const std::vector<Vec3d>
   std::vector<std::uint32_t> fill(mCellStart.begin(), mCellStart.end() - 1);
   for (std::size_t t = 0; t < n; ++t)  // ascending t within each cell
     for (std::uint32_t cell : cellsOf[t]) mTriangles[fill[cell]++] = std::uint32_t(t);
+}
+
+void TriangleBand::refit() {
+  const std::size_t n = mA.size();
+  mBoxLo.resize(n);
+  mBoxHi.resize(n);
+  for (std::size_t t = 0; t < n; ++t) {
+    mBoxLo[t] = mA[t].cwiseMin(mB[t]).cwiseMin(mC[t]);
+    mBoxHi[t] = mA[t].cwiseMax(mB[t]).cwiseMax(mC[t]);
+  }
 }
 
 long TriangleBand::closest(const Vec3d& p, Vec3d& point) const {

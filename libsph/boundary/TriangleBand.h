@@ -7,7 +7,8 @@
 /// range; each cell lists the triangles that can hold the closest surface
 /// point of any point of the cell within the range: those whose distance to
 /// the cell centre is at most range + half the cell diagonal (triangle
-/// inequality). A query reads one cell and tests its triangles in index
+/// inequality), plus a slack by which the corners may move afterwards (a
+/// deforming mesh between two frames). A query reads one cell and tests its triangles in index
 /// order, skipping those whose bounding box is already farther than the best
 /// hit, so ties go to the lowest index, as in a scan over all triangles.
 /// Closest point on a triangle: Ericson, Real-Time Collision Detection 5.1.5.
@@ -26,9 +27,14 @@ Vec3d closestOnTriangle(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Ve
 class TriangleBand {
 public:
   /// Indexes triangles (a[t], b[t], c[t]) for queries of `range`; the corner
-  /// arrays must outlive the band.
+  /// arrays must outlive the band. With `slack` > 0 the cells list the triangles
+  /// within range + slack, so the corners may move by up to `slack` (then refit()).
   TriangleBand(const std::vector<Vec3d>& a, const std::vector<Vec3d>& b, const std::vector<Vec3d>& c,
-               double range);
+               double range, double slack = 0);
+
+  /// After the corners moved (each at most `slack` from where the band was built):
+  /// the triangles' bounds from the corners now.
+  void refit();
 
   double range() const { return mRange; }
 

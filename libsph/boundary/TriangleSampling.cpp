@@ -33,11 +33,18 @@ long segmentsFor(double length, double maxGap, long least) {
 }
 } // namespace
 
-std::vector<Vec3r> sampleTriangles(const TriangleMesh& mesh, Real maxGap, std::size_t* rowSampledTriangles) {
-  std::vector<Vec3r> samples;
+namespace {
+/// The samples as positions (computed as before, so static meshes keep their exact
+/// points) and, if asked, as surface points (vertex weights), in the same order.
+void sampleMesh(const TriangleMesh& mesh, Real maxGap, std::size_t* rowSampledTriangles, std::vector<Vec3r>& samples,
+                std::vector<SurfacePoint>* points) {
   std::size_t rowSampled = 0;
   const double gap = double(maxGap);
   const auto vertex = [&](std::uint32_t v) { return mesh.vertices[v].cast<double>(); };
+  const auto emit = [&](const Vec3d& x, std::array<std::uint32_t, 3> v, std::array<double, 3> w) {
+    samples.push_back(x.cast<Real>());
+    if (points) points->push_back(SurfacePoint{v, w});
+  };
   // Vertices at the same position (seams left by hole filling) are one vertex:
   // each position is sampled once, and edges are keyed by these canonical indices.
   std::vector<std::uint32_t> canonical(mesh.vertices.size());
@@ -52,7 +59,7 @@ std::vector<Vec3r> sampleTriangles(const TriangleMesh& mesh, Real maxGap, std::s
   std::vector<char> used(mesh.vertices.size(), 0);
   for (const auto& t : mesh.triangles) used[canonical[t[0]]] = used[canonical[t[1]]] = used[canonical[t[2]]] = 1;
   for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
-    if (used[v]) samples.push_back(mesh.vertices[v].cast<Real>());
+    if (used[v]) emit(vertex(std::uint32_t(v)), {std::uint32_t(v), 0, 0}, {1, 0, 0});
   // Edges: once each, the count from the length alone (both triangles agree).
   std::set<std::pair<std::uint32_t, std::uint32_t>> edges;
   for (const auto& tri : mesh.triangles)
@@ -64,7 +71,10 @@ std::vector<Vec3r> sampleTriangles(const TriangleMesh& mesh, Real maxGap, std::s
   for (const auto& [first, second] : edges) {
     const Vec3d a = vertex(first), b = vertex(second);
     const long n = segmentsFor((b - a).norm(), gap, 2);
-    for (long q = 1; q < n; ++q) samples.push_back((a + (double(q) / double(n)) * (b - a)).cast<Real>());
+    for (long q = 1; q < n; ++q) {
+      const double f = double(q) / double(n);
+      emit(a + f * (b - a), {first, second, 0}, {1 - f, f, 0});
+    }
   }
   // Triangles: the centroid of a small one, rows inside a larger one.
   for (const auto& tri : mesh.triangles) {
@@ -74,9 +84,11 @@ std::vector<Vec3r> sampleTriangles(const TriangleMesh& mesh, Real maxGap, std::s
       const double length = (vertex(tri[(e + 1) % 3]) - vertex(tri[e])).norm();
       if (length > longest) longest = length, base = e;
     }
+    const std::array<std::uint32_t, 3> corner{canonical[tri[base]], canonical[tri[(base + 1) % 3]],
+                                              canonical[tri[(base + 2) % 3]]};
     const Vec3d a = vertex(tri[base]), b = vertex(tri[(base + 1) % 3]), c = vertex(tri[(base + 2) % 3]);
     if (longest <= 2 * gap) {
-      samples.push_back(((a + b + c) / 3.0).cast<Real>());
+      emit((a + b + c) / 3.0, corner, {1.0 / 3, 1.0 / 3, 1.0 / 3});
       continue;
     }
     ++rowSampled;
@@ -87,6 +99,11 @@ std::vector<Vec3r> sampleTriangles(const TriangleMesh& mesh, Real maxGap, std::s
     if (!(height > 0) || !(lengthAC > 0) || !(lengthBC > 0)) continue;  // degenerate: its edges sample it
     const double sinA = height / lengthAC, sinB = height / lengthBC;
     const long rows = segmentsFor(height, gap, 1);
+    // left + s along = a + t (c - a) + (s / longest) (b - a)
+    const auto rowPoint = [&](double t, const Vec3d& left, double s) {
+      const double u = s / longest;
+      emit(left + s * along, corner, {1 - t - u, u, t});
+    };
     for (long k = 1; k < rows; ++k) {
       const double t = double(k) / double(rows);
       const Vec3d left = a + t * (c - a);
@@ -95,18 +112,38 @@ std::vector<Vec3r> sampleTriangles(const TriangleMesh& mesh, Real maxGap, std::s
       const double span = end - begin;
       if (span < 0) continue;  // the whole row lies within gap / 2 of the side edges
       if (span < 0.5 * gap) {
-        samples.push_back((left + (begin + 0.5 * span) * along).cast<Real>());
+        rowPoint(t, left, begin + 0.5 * span);
         continue;
       }
       const long n = segmentsFor(span, gap, 1);
-      for (long q = 0; q <= n; ++q) samples.push_back((left + (begin + span * double(q) / double(n)) * along).cast<Real>());
+      for (long q = 0; q <= n; ++q) rowPoint(t, left, begin + span * double(q) / double(n));
     }
   }
   // Degenerate or folded triangles (crack fans of hole filling) put points
   // where an edge or another triangle already has one: keep those once.
-  removeDuplicateSamples(samples, maxGap * Real(1e-3));
+  std::vector<std::size_t> kept;
+  removeDuplicateSamples(samples, maxGap * Real(1e-3), points ? &kept : nullptr);
+  if (points) {
+    std::vector<SurfacePoint> keptPoints;
+    keptPoints.reserve(kept.size());
+    for (std::size_t k : kept) keptPoints.push_back((*points)[k]);
+    points->swap(keptPoints);
+  }
   if (rowSampledTriangles) *rowSampledTriangles = rowSampled;
+}
+} // namespace
+
+std::vector<Vec3r> sampleTriangles(const TriangleMesh& mesh, Real maxGap, std::size_t* rowSampledTriangles) {
+  std::vector<Vec3r> samples;
+  sampleMesh(mesh, maxGap, rowSampledTriangles, samples, nullptr);
   return samples;
+}
+
+std::vector<SurfacePoint> sampleTrianglePoints(const TriangleMesh& mesh, Real maxGap) {
+  std::vector<Vec3r> samples;
+  std::vector<SurfacePoint> points;
+  sampleMesh(mesh, maxGap, nullptr, samples, &points);
+  return points;
 }
 
 } // namespace cascade

@@ -1,5 +1,6 @@
 #include "libsph/scene/Manifest.h"
 
+#include "libsph/bodies/DeformingMesh.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/OutputLayout.h"
 #include "libsph/scene/SceneJson.h"
@@ -32,13 +33,23 @@ std::string hexHash(std::uint64_t hash) {
 std::string sceneInputHash(const Scene& scene) {
   const std::string text = sceneToJson(scene).dump();
   std::uint64_t hash = fnv1a(text.data(), text.size());
-  for (const Obstacle& obstacle : scene.boundaries.obstacles) {
-    std::ifstream in(obstacle.mesh, std::ios::binary);
-    std::vector<char> buffer(1 << 16);
+  // The obstacles' mesh files (every frame of a deforming sequence) enter by their bytes.
+  std::vector<char> buffer(1 << 16);
+  const auto addFile = [&](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
     while (in) {
       in.read(buffer.data(), std::streamsize(buffer.size()));
       hash = fnv1a(buffer.data(), std::size_t(in.gcount()), hash);
     }
+  };
+  for (const Obstacle& obstacle : scene.boundaries.obstacles) {
+    if (!obstacle.isSequence()) {
+      addFile(obstacle.mesh);
+      continue;
+    }
+    std::error_code error;
+    if (fs::is_regular_file(sequenceFramePath(obstacle.mesh, 0), error)) addFile(sequenceFramePath(obstacle.mesh, 0));
+    for (int f = 1; f <= scene.output.frameCount(); ++f) addFile(sequenceFramePath(obstacle.mesh, f));
   }
   return hexHash(hash);
 }

@@ -162,6 +162,10 @@ struct Obstacle {
   std::int64_t triangles = 0;
   std::optional<Motion> motion;
   std::optional<Dynamic> dynamic;
+
+  /// True if `mesh` is a deforming sequence: a run of '#' in its file name stands for
+  /// the frame number ("assets/paddle.####.obj").
+  bool isSequence() const { return mesh.find('#', mesh.find_last_of('/') + 1) != std::string::npos; }
 };
 
 struct Boundaries {

@@ -2,6 +2,7 @@
 
 #include "libsph/Errors.h"
 #include "libsph/NeighborSearch.h"
+#include "libsph/bodies/DeformingMesh.h"
 #include "libsph/io/AtomicFile.h"
 
 #include <algorithm>
@@ -386,7 +387,17 @@ Obstacle readObstacle(const Context& context, const json& value, const std::stri
   ObjectReader reader(context, value, path);
   Obstacle obstacle;
   obstacle.name = reader.string("name", "obstacle" + std::to_string(index + 1));
-  obstacle.mesh = resolveMesh(reader, "mesh", reader.requiredString("mesh"));
+  const std::string mesh = reader.requiredString("mesh");
+  obstacle.mesh = mesh;
+  if (obstacle.isSequence()) {
+    // A deforming sequence: its frames are checked once the output's frame count is known.
+    fs::path pattern(mesh);
+    if (pattern.is_relative()) pattern = context.baseDir / pattern;
+    std::error_code error;
+    obstacle.mesh = fs::absolute(pattern.lexically_normal(), error).lexically_normal().string();
+  } else {
+    obstacle.mesh = resolveMesh(reader, "mesh", mesh);
+  }
   obstacle.translate = reader.vector<3>("translate", obstacle.translate);
   obstacle.rotate = reader.vector<3>("rotate", obstacle.rotate);
   obstacle.scale = reader.number("scale", obstacle.scale, Range::Positive);
@@ -399,6 +410,14 @@ Obstacle readObstacle(const Context& context, const json& value, const std::stri
   if (motion) obstacle.motion = readMotion(context, *motion, reader.pathOf("motion"));
   if (dynamic) obstacle.dynamic = readDynamic(context, *dynamic, reader.pathOf("dynamic"));
   reader.finish();
+  if (obstacle.isSequence()) {
+    if (motion || dynamic)
+      reader.fail(reader.pathOf(motion ? "motion" : "dynamic"),
+                  "a deforming mesh sequence moves as its frames say: it takes no \"motion\" or \"dynamic\"");
+    if (obstacle.triangles > 0)
+      reader.fail(reader.pathOf("triangles"),
+                  "a deforming mesh sequence is not simplified (every frame must keep the same triangles)");
+  }
   return obstacle;
 }
 
@@ -592,6 +611,21 @@ Scene parseScene(const json& value, const std::string& fileLabel, const fs::path
     if (scene.output.endTime * scene.output.fps > 100000)
       output.fail("output.end_time", "more than 100000 frames at this fps");
     output.finish();
+  }
+
+  // Deforming sequences: every frame the bake reaches (1 to the last) must be there.
+  for (std::size_t k = 0; k < scene.boundaries.obstacles.size(); ++k) {
+    const Obstacle& obstacle = scene.boundaries.obstacles[k];
+    if (!obstacle.isSequence()) continue;
+    const int frames = scene.output.frameCount();
+    for (int f = 1; f <= frames; ++f) {
+      const std::string file = sequenceFramePath(obstacle.mesh, f);
+      std::error_code error;
+      if (!fs::is_regular_file(file, error))
+        context.fail("boundaries.obstacles[" + std::to_string(k) + "].mesh",
+                     "frame " + std::to_string(f) + " of the mesh sequence is missing: " + file +
+                         " (the bake runs to frame " + std::to_string(frames) + ")");
+    }
   }
 
   if (const json* cameraJson = top.find("camera")) {

@@ -2,6 +2,7 @@
 
 #include "libsph/Errors.h"
 #include "libsph/bodies/MassProperties.h"
+#include "libsph/bodies/DeformingMesh.h"
 #include "libsph/bodies/MovingBoundary.h"
 #include "libsph/boundary/BoxBoundary.h"
 #include "libsph/boundary/MeshBoundary.h"
@@ -187,6 +188,18 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
     options.transform.translation = toVec(obstacle.translate);
     options.transform.rotation = Transform::rotationFromEulerDegrees(toVec(obstacle.rotate));
     options.transform.scale = Real(obstacle.scale);
+    if (obstacle.isSequence()) {
+      MeshSequence sequence = loadMeshSequence(obstacle.mesh, scene.output.frameCount(), scene.output.fps,
+                                               options.transform, path + ".mesh");
+      auto solid = std::make_unique<DeformingMeshBoundary>(std::move(sequence));
+      solid->setName(obstacle.name);
+      if (log)
+        *log << obstacle.name << ": deforming mesh sequence, frames " << solid->sequence().firstFrame << "-"
+             << solid->sequence().lastFrame() << ", " << solid->sequence().triangles.size()
+             << " triangles, fastest surface point " << solid->maxMotionSpeed() << " m/s\n";
+      moving.push_back(simulation.addBoundary(std::move(solid)));
+      continue;
+    }
     options.targetTriangles = std::size_t(obstacle.triangles);
     // A body's mass from its volume needs the mesh as given: no silently filled holes.
     const bool massFromVolume = obstacle.dynamic && !(obstacle.dynamic->mass > 0);
@@ -219,14 +232,14 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
   // A moving solid may not start inside another solid: its hull points, and the
   // other solids' hull points (meshes) inside it.
   for (const std::size_t m : moving) {
-    const auto& solid = static_cast<const MovingBoundary&>(simulation.boundary(m));
-    const RigidPose pose = solid.pose();
+    const Boundary& solid = simulation.boundary(m);
+    const std::vector<Eigen::Vector3f> hull = solid.surfaceMesh().vertices;  // at t = 0
     for (std::size_t other = 0; other < simulation.boundaryCount(); ++other) {
       if (other == m) continue;
       const Boundary& them = simulation.boundary(other);
       bool overlap = false;
-      for (const Vec3d& p : solid.hull())
-        if (them.isInside(pose.apply(p).cast<Real>())) overlap = true;
+      for (const Eigen::Vector3f& p : hull)
+        if (them.isInside(p.cast<Real>())) overlap = true;
       if (!overlap && them.kind() != "tank" && them.kind() != "plane")
         for (const Eigen::Vector3f& v : them.surfaceMesh().vertices)
           if (solid.isInside(v)) overlap = true;

@@ -2,6 +2,7 @@
 
 #include "libsph/Errors.h"
 #include "libsph/Kernels.h"
+#include "libsph/bodies/DeformingMesh.h"
 #include "libsph/bodies/MovingBoundary.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/BinaryPod.h"
@@ -266,9 +267,7 @@ void Simulation::start() {
     }
     const Real floor = std::sqrt(Real(2) * kStandardGravity * mConstants.supportRadius);
     Real motion = 0;  // prescribed motions, over all time
-    for (const BoundaryPtr& b : mBoundaries)
-      if (const auto* moving = dynamic_cast<const MovingBoundary*>(b.get()))
-        motion = std::max(motion, Real(moving->maxMotionSpeed()));
+    for (const BoundaryPtr& b : mBoundaries) motion = std::max(motion, Real(b->maxMotionSpeed()));
     expected = std::max({fall, std::sqrt(speed2), floor, motion});
   }
   mConstants.expectedSpeed = expected;
@@ -576,7 +575,7 @@ const MovingBoundary* Simulation::movingSolid(std::size_t index) const {
 double Simulation::maxSolidSpeed() const {
   double speed = 0;
   for (const BoundaryPtr& b : mBoundaries)
-    if (const auto* moving = dynamic_cast<const MovingBoundary*>(b.get())) speed = std::max(speed, moving->maxSurfaceSpeed());
+    speed = std::max(speed, b->maxSurfaceSpeed());
   return speed;
 }
 
@@ -589,6 +588,7 @@ void Simulation::moveSolids(double dt) {
   const Vec3d gravity = mSettings.solver.gravity.cast<double>();
   const Real clearance = Real(0.01) * mSettings.fluid.spacing;
   for (std::size_t b = 0; b < mBoundaries.size(); ++b) {
+    if (auto* deforming = dynamic_cast<DeformingMeshBoundary*>(mBoundaries[b].get())) deforming->moveTo(mTime + dt);
     auto* moving = dynamic_cast<MovingBoundary*>(mBoundaries[b].get());
     if (moving == nullptr) continue;
     const Vec3d center = moving->center();
@@ -629,8 +629,12 @@ void Simulation::save(std::ostream& out) const {
   writeArray(out, mObstacleForce);
   writeArray(out, mReportedForce);
   writeArray(out, mObstacleMoment);
-  for (const BoundaryPtr& b : mBoundaries)
+  for (const BoundaryPtr& b : mBoundaries) {
     if (const auto* moving = dynamic_cast<const MovingBoundary*>(b.get())) moving->save(out);
+    // A deforming surface is a function of the time it was placed at (the step's end,
+    // which may differ from mTime by the round-off advanceTo lands on).
+    if (const auto* deforming = dynamic_cast<const DeformingMeshBoundary*>(b.get())) writePod(out, deforming->time());
+  }
   mTimeStep->save(out);
   if (!out) throw std::runtime_error("checkpoint: write failed");
 }
@@ -665,8 +669,14 @@ void Simulation::restore(std::istream& in) {
   readArray(in, mObstacleForce, boundaries);
   readArray(in, mReportedForce, boundaries);
   readArray(in, mObstacleMoment, boundaries);
-  for (const BoundaryPtr& b : mBoundaries)
+  for (const BoundaryPtr& b : mBoundaries) {
     if (auto* moving = dynamic_cast<MovingBoundary*>(b.get())) moving->restore(in);
+    if (auto* deforming = dynamic_cast<DeformingMeshBoundary*>(b.get())) {
+      double placed = 0;
+      readPod(in, placed);
+      deforming->resetTo(placed);
+    }
+  }
   mTimeStep->resize(n);
   mTimeStep->restore(in);
   if (mStarted) {

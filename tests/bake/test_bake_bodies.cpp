@@ -39,7 +39,9 @@ const fs::path& scratch() {
 /// A 0.1 m crate of density 600 dropped from 5 cm above a pool 0.12 m deep (DFSPH,
 /// 1.5 cm: 3,200 particles, 12 frames), a body probe and a velocity probe.
 /// `obstacle` replaces the crate's JSON when given.
-fs::path writeScene(const std::string& name, const std::string& obstacle = "") {
+fs::path writeScene(const std::string& name, const std::string& obstacle = "",
+                    const std::string& probes = R"([{"name": "B", "type": "body", "obstacle": "crate"}, )"
+                                                R"({"name": "U", "type": "velocity", "at": [0.05, 0.05, 0.05]}])") {
   const fs::path file = scratch() / (name + ".json");
   const std::string crate = obstacle.empty() ? R"({"name": "crate", "mesh": ")" + kAssets +
                                                    R"(/crate.obj", "translate": [0.15, 0.15, 0.22], "rotate": [0, 0, 20],
@@ -51,7 +53,7 @@ fs::path writeScene(const std::string& name, const std::string& obstacle = "") {
   "solver": {"type": "dfsph"},
   "boundaries": {"tank": {"min": [0, 0, 0], "max": [0.3, 0.3, 0.4]}, "obstacles": [)" << crate << R"(]},
   "output": {"fps": 30, "end_time": 0.4, "probe_rate": 60},
-  "probes": [{"name": "B", "type": "body", "obstacle": "crate"}, {"name": "U", "type": "velocity", "at": [0.05, 0.05, 0.05]}]
+  "probes": )" << probes << R"(
 })";
   return file;
 }
@@ -59,20 +61,16 @@ fs::path writeScene(const std::string& name, const std::string& obstacle = "") {
 std::uint64_t checksumOf(const fs::path& file) { return particleChecksum(readParticleFrame(file)); }
 } // namespace
 
-TEST(BakeBodies, SigkillMidFrameThenResumeIsBitIdentical) {
-  ASSERT_TRUE(fs::exists(kCascade));
-  const fs::path scene = writeScene("crate");
-  const fs::path reference = scratch() / "reference", killed = scratch() / "killed";
-  ASSERT_EQ(waitFor(spawn({"bake", scene.string(), "-o", reference.string()}, scratch() / "reference.log")), 0)
-      << readLog(scratch() / "reference.log");
+/// Bakes `scene` whole into NAME_reference, and again into NAME_killed killed with
+/// SIGKILL once frame 5 is written, then resumed: every frame's particles and solids,
+/// and the probes, must be bit for bit the reference's.
+void expectResumeIsBitIdentical(const fs::path& scene, const std::string& name) {
+  const fs::path reference = scratch() / (name + "_reference"), killed = scratch() / (name + "_killed");
+  const fs::path referenceLog = scratch() / (name + "_reference.log"), killedLog = scratch() / (name + "_killed.log"),
+                 resumeLog = scratch() / (name + "_resume.log");
+  ASSERT_EQ(waitFor(spawn({"bake", scene.string(), "-o", reference.string()}, referenceLog)), 0) << readLog(referenceLog);
   const OutputLayout ref(reference), out(killed);
-  // The crate fell and the probes say so: its centre ends lower, and it moved.
-  const std::string probes = readTextFile(ref.probes());
-  ASSERT_EQ(probes.substr(0, probes.find('\n')), "t,B_x,B_y,B_z,B_vx,B_vy,B_vz,U_x,U_y,U_z");
-  EXPECT_TRUE(fs::exists(ref.solids(12)));
-  EXPECT_NE(readTextFile(ref.solids(1)), readTextFile(ref.solids(12)));
-
-  const pid_t pid = spawn({"bake", scene.string(), "-o", killed.string()}, scratch() / "killed.log");
+  const pid_t pid = spawn({"bake", scene.string(), "-o", killed.string()}, killedLog);
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(120);
   while (!fs::exists(out.particles(5)) && std::chrono::steady_clock::now() < until)
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
@@ -80,14 +78,53 @@ TEST(BakeBodies, SigkillMidFrameThenResumeIsBitIdentical) {
   ::kill(pid, SIGKILL);
   EXPECT_EQ(waitFor(pid), 128 + SIGKILL);
   ASSERT_FALSE(fs::exists(out.particles(12))) << "the bake finished before it could be killed";
-  ASSERT_EQ(waitFor(spawn({"bake", scene.string(), "-o", killed.string()}, scratch() / "resume.log")), 0)
-      << readLog(scratch() / "resume.log");
-  EXPECT_NE(readLog(scratch() / "resume.log").find("resuming"), std::string::npos);
+  ASSERT_EQ(waitFor(spawn({"bake", scene.string(), "-o", killed.string()}, resumeLog)), 0) << readLog(resumeLog);
+  EXPECT_NE(readLog(resumeLog).find("resuming"), std::string::npos);
   for (int frame = 1; frame <= 12; ++frame) {
     EXPECT_EQ(checksumOf(out.particles(frame)), checksumOf(ref.particles(frame))) << "frame " << frame;
     EXPECT_EQ(readTextFile(out.solids(frame)), readTextFile(ref.solids(frame))) << "frame " << frame;
   }
-  EXPECT_EQ(readTextFile(out.probes()), probes);
+  EXPECT_EQ(readTextFile(out.probes()), readTextFile(ref.probes()));
+}
+
+TEST(BakeBodies, SigkillMidFrameThenResumeIsBitIdentical) {
+  ASSERT_TRUE(fs::exists(kCascade));
+  const fs::path scene = writeScene("crate");
+  expectResumeIsBitIdentical(scene, "crate");
+  // The crate fell and the probes say so: its centre ends lower, and it moved.
+  const OutputLayout ref(scratch() / "crate_reference");
+  const std::string probes = readTextFile(ref.probes());
+  EXPECT_EQ(probes.substr(0, probes.find('\n')), "t,B_x,B_y,B_z,B_vx,B_vy,B_vz,U_x,U_y,U_z");
+  EXPECT_TRUE(fs::exists(ref.solids(12)));
+  EXPECT_NE(readTextFile(ref.solids(1)), readTextFile(ref.solids(12)));
+}
+
+TEST(BakeBodies, DeformingSequenceResumesBitIdentical) {
+  // scenes/flex_paddle.json's bending paddle (an OBJ sequence) in the pool.
+  const std::string paddle = R"({"name": "paddle", "mesh": ")" + kAssets +
+                             R"(/flex_paddle/paddle.####.obj", "translate": [0.05, 0.15, 0.0]})";
+  const fs::path scene =
+      writeScene("paddle", paddle, R"([{"name": "F", "type": "force", "obstacle": "paddle"}, )"
+                                   R"({"name": "U", "type": "velocity", "at": [0.1, 0.15, 0.06]}])");
+  expectResumeIsBitIdentical(scene, "paddle");
+  // The solids of each frame are the sequence's frames, placed: frame 12's paddle bends.
+  const OutputLayout ref(scratch() / "paddle_reference");
+  const TriangleMesh first = readObj(ref.solids(1)), last = readObj(ref.solids(12));
+  const TriangleMesh file12 = readObj(kAssets + "/flex_paddle/paddle.0012.obj");
+  ASSERT_EQ(last.groups.size(), 2u);  // the tank, the paddle
+  const TriangleMesh::Group& group = last.groups[1];
+  EXPECT_EQ(group.name, "paddle");
+  float largest = 0;
+  for (std::size_t t = group.begin; t < group.end; ++t)
+    for (const std::uint32_t v : last.triangles[t]) {
+      // Every paddle vertex of frame 12 is a vertex of the file, placed by the translation.
+      float nearest = 1e9f;
+      for (const Eigen::Vector3f& w : file12.vertices)
+        nearest = std::min(nearest, (last.vertices[v] - (w + Eigen::Vector3f(0.05f, 0.15f, 0.0f))).norm());
+      largest = std::max(largest, nearest);
+    }
+  EXPECT_LT(largest, 1e-6f);
+  EXPECT_NE(readTextFile(ref.solids(1)), readTextFile(ref.solids(12)));
 }
 
 TEST(BakeBodies, BadMovingSolidInputExits2NamingThePath) {
@@ -100,9 +137,10 @@ TEST(BakeBodies, BadMovingSolidInputExits2NamingThePath) {
     open.triangles.push_back({f[0], f[2], f[3]});
   }
   writeObj(scratch() / "open.obj", open);
-  const auto bake = [&](const std::string& name, const std::string& obstacle) {
+  const auto bake = [&](const std::string& name, const std::string& obstacle, const std::string& probes = "") {
     const fs::path log = scratch() / (name + ".log");
-    const int status = waitFor(spawn({"bake", writeScene(name, obstacle).string(), "-o", (scratch() / name).string()}, log));
+    const fs::path scene = probes.empty() ? writeScene(name, obstacle) : writeScene(name, obstacle, probes);
+    const int status = waitFor(spawn({"bake", scene.string(), "-o", (scratch() / name).string()}, log));
     return std::make_pair(status, readLog(log));
   };
   auto [status, message] = bake("open", R"({"name": "crate", "mesh": ")" + (scratch() / "open.obj").string() +
@@ -124,6 +162,20 @@ TEST(BakeBodies, BadMovingSolidInputExits2NamingThePath) {
         {"t": 0, "translate": [0, 0, 0]}, {"t": 0.5, "translate": [0, 0, 0.1]}, {"t": 0.2, "translate": [0, 0, 0]}]}})");
   EXPECT_EQ(status, 2);
   EXPECT_NE(message.find("keys.json: boundaries.obstacles[0].motion.keyframes[2].t: keyframes must be in increasing time order"),
+            std::string::npos)
+      << message;
+  // A deforming sequence with a missing frame: the file and the path are named.
+  fs::create_directories(scratch() / "short");
+  for (int k = 1; k <= 11; ++k)
+    fs::copy_file(kAssets + "/flex_paddle/paddle." + std::string(k < 10 ? "000" : "00") + std::to_string(k) + ".obj",
+                  scratch() / "short" / ("paddle." + std::string(k < 10 ? "000" : "00") + std::to_string(k) + ".obj"),
+                  fs::copy_options::overwrite_existing);
+  std::tie(status, message) = bake("short", R"({"name": "paddle", "mesh": ")" + (scratch() / "short").string() +
+                                                R"(/paddle.####.obj", "translate": [0.05, 0.15, 0.0]})",
+                                        "[]");
+  EXPECT_EQ(status, 2);
+  EXPECT_NE(message.find("short.json: boundaries.obstacles[0].mesh: frame 12 of the mesh sequence is missing: " +
+                         (scratch() / "short" / "paddle.0012.obj").string() + " (the bake runs to frame 12)"),
             std::string::npos)
       << message;
 }

@@ -322,3 +322,47 @@ TEST(SceneMotion, ProbeErrors) {
   // A force probe still accepts a static obstacle.
   EXPECT_EQ(loadError(sceneText(obstacles, R"([{"name": "F", "type": "force", "obstacle": "wall"}])")), "");
 }
+
+TEST(SceneMotion, MeshSequencesAreCheckedFrameByFrame) {
+  // A deforming sequence: "cube.####.obj", frames 1 to the last frame the bake reaches.
+  const fs::path dir = tempDir("sequence");
+  const auto errorOf = [&](const std::string& obstacles) -> std::string {
+    std::string text = sceneText(obstacles);
+    text.insert(text.size() - 1, R"(, "output": {"fps": 10, "end_time": 0.3})");
+    writeTextAtomically(dir / "scene.json", text);
+    try {
+      loadScene(dir / "scene.json");
+    } catch (const InputError& error) {
+      std::string message = error.what();
+      const std::string prefix = (dir / "scene.json").string();
+      if (message.rfind(prefix, 0) == 0) message = "scene.json" + message.substr(prefix.size());
+      return message;
+    }
+    return "";
+  };
+  const std::string sequence = R"({"name": "flex", "mesh": "cube.####.obj")";
+  // Frames 1 and 2 of 3: the missing one is named, with its JSON path.
+  const std::string cube = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+  for (const char* frame : {"cube.0001.obj", "cube.0002.obj"}) writeTextAtomically(dir / frame, cube);
+  EXPECT_EQ(errorOf("[" + sequence + "}]"), "scene.json: boundaries.obstacles[0].mesh: frame 3 of the mesh sequence is missing: " +
+                                               (dir / "cube.0003.obj").string() + " (the bake runs to frame 3)");
+  writeTextAtomically(dir / "cube.0003.obj", cube);
+  EXPECT_EQ(errorOf("[" + sequence + "}]"), "");
+  const Scene scene = loadScene(dir / "scene.json");
+  ASSERT_EQ(scene.boundaries.obstacles.size(), 1u);
+  EXPECT_TRUE(scene.boundaries.obstacles[0].isSequence());
+  EXPECT_EQ(scene.boundaries.obstacles[0].mesh, (dir / "cube.####.obj").string());
+  // Written and read back, the pattern stays a pattern.
+  const Scene again = parseScene(sceneToJson(scene), "again.json", dir);
+  EXPECT_EQ(again.boundaries.obstacles[0].mesh, scene.boundaries.obstacles[0].mesh);
+  // A sequence moves as its frames say, and keeps its triangles.
+  EXPECT_EQ(errorOf("[" + sequence + ", " + kPiston + "}]"),
+            "scene.json: boundaries.obstacles[0].motion: a deforming mesh sequence moves as its frames say: it takes "
+            "no \"motion\" or \"dynamic\"");
+  EXPECT_EQ(errorOf("[" + sequence + R"(, "dynamic": {"density": 500}})" + "]"),
+            "scene.json: boundaries.obstacles[0].dynamic: a deforming mesh sequence moves as its frames say: it "
+            "takes no \"motion\" or \"dynamic\"");
+  EXPECT_EQ(errorOf("[" + sequence + R"(, "triangles": 100})" + "]"),
+            "scene.json: boundaries.obstacles[0].triangles: a deforming mesh sequence is not simplified (every "
+            "frame must keep the same triangles)");
+}
