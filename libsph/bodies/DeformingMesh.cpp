@@ -183,6 +183,9 @@ void DeformingMeshBoundary::moveTo(double t) {
     TriangleMesh mesh;
     mesh.triangles = mSequence.triangles;
     mesh.vertices = a;
+    Vec3d lo = Vec3d::Constant(1e300), hi = -lo;
+    for (const Eigen::Vector3f& x : a) lo = lo.cwiseMin(x.cast<double>()), hi = hi.cwiseMax(x.cast<double>());
+    mContactPoints = sampleTrianglePoints(mesh, Real(std::max((hi - lo).norm() / 20, 1e-4)));
     mCurrent = MeshBoundary::fromMesh(std::move(mesh), name(), 1.0001 * slack + 1e-9);
   }
   mTime = t;

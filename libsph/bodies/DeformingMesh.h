@@ -86,6 +86,11 @@ public:
   const MeshSequence& sequence() const { return mSequence; }
   /// The mesh at the current time (world).
   const MeshBoundary& current() const { return *mCurrent; }
+  /// Its vertices before the last step (empty after resetTo()).
+  const std::vector<Eigen::Vector3f>& previousVertices() const { return mPreviousVertices; }
+  /// Points for contacts with rigid bodies: the surface of the interval's first frame
+  /// sampled a twentieth of its size apart, as vertex weights.
+  const std::vector<SurfacePoint>& contactPoints() const { return mContactPoints; }
 
 private:
   /// Interval k (frames k and k + 1) and weight at time t.
@@ -100,6 +105,7 @@ private:
   std::unique_ptr<MeshBoundary> mCurrent;          ///< the surface now (grids built per frame interval)
   std::vector<Eigen::Vector3f> mPreviousVertices;  ///< before the last step (none after resetTo)
   std::vector<Vec3d> mVertexVelocity;  ///< this interval's, per vertex
+  std::vector<SurfacePoint> mContactPoints;
   double mSpeed = 0, mMaxSpeed = 0;
   double mStepReach = 0;  ///< farthest a vertex moved in the last step, m
 };

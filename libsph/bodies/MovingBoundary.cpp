@@ -1,5 +1,7 @@
 #include "libsph/bodies/MovingBoundary.h"
 
+#include "libsph/bodies/DeformingMesh.h"
+
 #include "libsph/Errors.h"
 #include "libsph/io/BinaryPod.h"
 
@@ -26,10 +28,22 @@ std::vector<Vec3d> hullOf(const Boundary& reference) {
   return hull;
 }
 
+/// The surface sampled a twentieth of its bounds' diagonal apart.
+std::vector<Vec3d> contactPointsOf(const Boundary& reference) {
+  const TriangleMesh mesh = reference.surfaceMesh();
+  Vec3r lo, hi;
+  reference.bounds(lo, hi);
+  const Real gap = std::max((hi - lo).norm() / Real(20), Real(1e-4));
+  std::vector<Vec3d> points;
+  for (const Vec3r& p : sampleTriangles(mesh, gap)) points.push_back(p.cast<double>());
+  return points;
+}
+
 } // namespace
 
 MovingBoundary::MovingBoundary(BoundaryPtr reference, KinematicMotion motion)
-    : mReference(std::move(reference)), mMotion(std::move(motion)), mHull(hullOf(*mReference)) {
+    : mReference(std::move(reference)), mMotion(std::move(motion)), mHull(hullOf(*mReference)),
+      mContactPoints(contactPointsOf(*mReference)) {
   setName(mReference->name());
   moveTo(0.0);
   mPreviousPose = mPose;
@@ -37,7 +51,8 @@ MovingBoundary::MovingBoundary(BoundaryPtr reference, KinematicMotion motion)
 }
 
 MovingBoundary::MovingBoundary(BoundaryPtr reference, RigidBody body)
-    : mReference(std::move(reference)), mBody(std::move(body)), mHull(hullOf(*mReference)) {
+    : mReference(std::move(reference)), mBody(std::move(body)), mHull(hullOf(*mReference)),
+      mContactPoints(contactPointsOf(*mReference)) {
   setName(mReference->name());
   setPose(mBody->pose(), mBody->velocity());
   mPreviousPose = mPose;
@@ -77,26 +92,73 @@ void MovingBoundary::advance(double t, double dt, const Vec3d& fluidForce, const
   RigidBody& body = *mBody;
   const RigidPose before = mPose;
   body.integrate(fluidForce + body.mass() * gravity, fluidTorque, dt);
+  clearContacts(before, solids, clearance);
+  mPreviousPose = before;
+}
+
+namespace {
+/// A point that moved from `from` to `to` this step, tested a clearance further (a
+/// speculative contact: a point resting a clearance off a surface touches it, so a
+/// body at rest on it stays at rest): the contact it makes with `solid`, if any; its
+/// normal out of the solid, its depth how far the point must go along it.
+bool contactOf(const Boundary& solid, const Vec3d& from, const Vec3d& to, Real clearance, RigidContact& contact) {
+  const Vec3r start = from.cast<Real>(), end = to.cast<Real>();
+  const Vec3r move = end - start;
+  const Real length = move.norm();
+  const Vec3r reach = length > 0 ? Vec3r(end + (clearance / length) * move) : end;
+  Vec3r exit, normal;
+  if (!solid.penetrated(start, reach, clearance, exit, normal)) return false;
+  contact = RigidContact{to, normal.cast<double>().normalized(), double((exit - end).dot(normal))};
+  return true;
+}
+} // namespace
+
+void MovingBoundary::clearContacts(const RigidPose& from, const std::vector<const Boundary*>& solids, Real clearance) {
+  RigidBody& body = *mBody;
   const RigidPose after = body.pose();
   std::vector<RigidContact> contacts;
-  for (const Vec3d& p : mHull) {
-    const Vec3r from = before.apply(p).cast<Real>(), to = after.apply(p).cast<Real>();
-    // The move is tested a clearance further (a speculative contact: a vertex resting a
-    // clearance off the floor touches it, so a body at rest on it stays at rest).
-    const Vec3r move = to - from;
-    const Real length = move.norm();
-    const Vec3r reach = length > 0 ? Vec3r(to + (clearance / length) * move) : to;
-    for (const Boundary* solid : solids) {
-      Vec3r exit, normal;
-      if (!solid->penetrated(from, reach, clearance, exit, normal)) continue;
-      const double depth = double((exit - to).dot(normal));  // < 0: not yet in, still approaching
-      contacts.push_back(RigidContact{to.cast<double>(), normal.cast<double>().normalized(), depth});
-    }
-  }
+  RigidContact contact;
+  for (const Vec3d& p : mHull)
+    for (const Boundary* solid : solids)
+      if (contactOf(*solid, from.apply(p), after.apply(p), clearance, contact)) contacts.push_back(contact);
+  const Vec3d centerBefore = body.centerOfMass();
   body.resolveContacts(contacts);
-  mPreviousPose = before;
   mPose = body.pose();
   mVelocity = body.velocity();
+  // Kept for contact groups with other solids, moved with the body.
+  const Vec3d shift = body.centerOfMass() - centerBefore;
+  mRestingContacts = contacts;
+  for (RigidContact& c : mRestingContacts) {
+    c.point += shift;
+    c.depth -= shift.dot(c.normal);
+  }
+}
+
+void MovingBoundary::settle(const RigidPose& from, const std::vector<const Boundary*>& atRest, Real clearance) {
+  if (!mBody) return;
+  const std::vector<RigidContact> resting = mRestingContacts;
+  clearContacts(from, atRest, clearance);
+  if (mRestingContacts.empty()) mRestingContacts = resting;  // still resting where it was
+}
+
+void MovingBoundary::contactsWith(const Boundary& other, Real clearance, std::vector<RigidContact>& contacts) const {
+  RigidContact contact;
+  // This body's points into the other (which answers for its own motion over the step).
+  for (const Vec3d& p : mContactPoints)
+    if (contactOf(other, mPreviousPose.apply(p), mPose.apply(p), clearance, contact)) contacts.push_back(contact);
+  // The other's points into this body: the contact's normal turned round (the way this body must go).
+  const auto theirs = [&](const Vec3d& from, const Vec3d& to) {
+    if (!contactOf(*this, from, to, clearance, contact)) return;
+    contact.normal = -contact.normal;
+    contacts.push_back(contact);
+  };
+  if (const auto* moving = dynamic_cast<const MovingBoundary*>(&other)) {
+    for (const Vec3d& p : moving->contactPoints()) theirs(moving->mPreviousPose.apply(p), moving->mPose.apply(p));
+  } else if (const auto* deforming = dynamic_cast<const DeformingMeshBoundary*>(&other)) {
+    const std::vector<Eigen::Vector3f>& now = deforming->current().mesh().vertices;
+    const std::vector<Eigen::Vector3f>& before = deforming->previousVertices().empty() ? now : deforming->previousVertices();
+    for (const SurfacePoint& p : deforming->contactPoints()) theirs(p.on(before), p.on(now));
+  }
 }
 
 void MovingBoundary::sampleSurface(Real maxGap, std::vector<Vec3r>& samples) const {

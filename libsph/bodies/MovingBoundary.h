@@ -65,6 +65,16 @@ public:
   /// contacts with `solids` (those at rest). The pose before is kept for penetrated().
   void advance(double t, double dt, const Vec3d& fluidForce, const Vec3d& fluidTorque, const Vec3d& gravity,
                const std::vector<const Boundary*>& solids, Real clearance);
+  /// Contacts of this rigid body with another moving solid, after both moved this step
+  /// (another rigid body, a solid moved as prescribed, a deforming mesh): this body's
+  /// contact points that entered it and its points that entered this body, each with
+  /// the normal this body must go along. Appended to `contacts`.
+  void contactsWith(const Boundary& other, Real clearance, std::vector<RigidContact>& contacts) const;
+  /// The contacts with the solids at rest that the last step cleared (where they are now).
+  const std::vector<RigidContact>& restingContacts() const { return mRestingContacts; }
+  /// After the body was moved by a contact group (solveContacts): takes its new state and
+  /// clears the solids at rest again for the move from `from`.
+  void settle(const RigidPose& from, const std::vector<const Boundary*>& atRest, Real clearance);
   /// A rigid body takes an impulse (N s) and angular impulse about its centre of mass
   /// (N m s) at once: the guard's push on particles it had moved onto. Others ignore it.
   void applyImpulse(const Vec3d& impulse, const Vec3d& angular);
@@ -73,12 +83,21 @@ public:
 
   /// Hull points (reference frame) used for contacts: the reference mesh's vertices.
   const std::vector<Vec3d>& hull() const { return mHull; }
+  /// Points (reference frame) used for contacts with other moving solids: the
+  /// reference surface sampled about a twentieth of its size apart (vertices, edges
+  /// and faces: stacked boxes touch face to face, with no vertex inside the other).
+  const std::vector<Vec3d>& contactPoints() const { return mContactPoints; }
 
   void save(std::ostream& out) const;
   void restore(std::istream& in);
 
+  RigidPose previousPose() const { return mPreviousPose; }
+
 private:
   void setPose(const RigidPose& pose, const RigidVelocity& velocity);
+  /// Contacts of the body's hull points moving from pose `from` to the body's pose now
+  /// with `solids` (speculative by `clearance`), resolved; then the state from the body.
+  void clearContacts(const RigidPose& from, const std::vector<const Boundary*>& solids, Real clearance);
   /// Calls visit(value) for each value of the state a checkpoint keeps, in order.
   template <typename F>
   void forEachStateValue(F&& visit);
@@ -87,7 +106,8 @@ private:
   std::optional<RigidBody> mBody;
   RigidPose mPose, mPreviousPose;
   RigidVelocity mVelocity;
-  std::vector<Vec3d> mHull;
+  std::vector<Vec3d> mHull, mContactPoints;
+  std::vector<RigidContact> mRestingContacts;
   double mRadius = 0;  ///< largest distance of a hull point from the reference centre
 };
 

@@ -14,6 +14,8 @@
 /// 2005, "Iterative dynamics with temporal coherence") remove the approach
 /// velocity at each point (restitution e) with Coulomb friction mu, on the
 /// accumulated impulse. So a body comes to rest on the floor instead of sinking.
+/// Bodies meet each other, and solids that move as prescribed, in groups solved
+/// together with their contacts with the solids at rest (solveContacts).
 #pragma once
 
 #include "libsph/bodies/MassProperties.h"
@@ -65,6 +67,10 @@ public:
   }
   /// Clears the contacts (positions, then velocities); see the file comment.
   void resolveContacts(const std::vector<RigidContact>& contacts);
+  /// Moves the centre of mass by `shift` (a contact's position correction).
+  void shift(const Vec3d& shift) { mCenter += shift; }
+  double friction() const { return mFriction; }
+  double restitution() const { return mRestitution; }
 
   /// Exact binary save / restore of the state.
   void save(std::ostream& out) const;
@@ -78,5 +84,27 @@ private:
   Eigen::Quaterniond mOrientation = Eigen::Quaterniond::Identity();
   Vec3d mVelocity = Vec3d::Zero(), mAngularVelocity = Vec3d::Zero();
 };
+
+/// One contact of a group solved together (solveContacts): body `a` against body `b`,
+/// or (b null) against a solid whose surface moves at `surfaceVelocity` at the point
+/// (zero for one at rest). `normal` is the way `a` must go, `depth` how far (<= 0: not
+/// in yet; only the approach velocity is stopped).
+struct ContactConstraint {
+  RigidBody* a = nullptr;
+  RigidBody* b = nullptr;
+  Vec3d point = Vec3d::Zero(), normal = Vec3d::UnitZ();
+  double depth = 0;
+  Vec3d surfaceVelocity = Vec3d::Zero();
+  double friction = 0, restitution = 0;
+};
+
+/// Clears a group of contacts between bodies and the solids around them at once, so
+/// that a stack rests (the floor holds the lower box while the upper one is pushed
+/// off it). Positions first: passes over the contacts, each moving its two bodies
+/// apart along the normal by what is missing, shared in proportion to their inverse
+/// masses (a solid that is not a body takes none). Then sequential impulses (Catto
+/// 2005) on the relative velocity at each point, equal and opposite on two bodies,
+/// with the contact's restitution and Coulomb friction: momentum is exchanged, not made.
+void solveContacts(const std::vector<ContactConstraint>& contacts);
 
 } // namespace cascade

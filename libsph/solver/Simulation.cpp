@@ -594,6 +594,61 @@ void Simulation::moveSolids(double dt) {
     const Vec3d center = moving->center();
     moving->advance(mTime + dt, dt, mObstacleForce[b], obstacleTorque(b, center), gravity, atRest, clearance);
   }
+  // Rigid bodies against each other and against the other moving solids: the contacts
+  // of every pair (in index order: deterministic), solved as one group with the bodies'
+  // contacts with the solids at rest, so that a stack rests on the floor.
+  std::vector<ContactConstraint> group;
+  std::vector<MovingBoundary*> involved;
+  const auto involve = [&](MovingBoundary* body) {
+    if (std::find(involved.begin(), involved.end(), body) == involved.end()) involved.push_back(body);
+  };
+  std::vector<RigidContact> contacts;
+  for (std::size_t b = 0; b < mBoundaries.size(); ++b) {
+    auto* body = dynamic_cast<MovingBoundary*>(mBoundaries[b].get());
+    if (body == nullptr || !body->isDynamic()) continue;
+    for (std::size_t other = 0; other < mBoundaries.size(); ++other) {
+      if (other == b || !mBoundaries[other]->moves()) continue;
+      auto* otherBody = dynamic_cast<MovingBoundary*>(mBoundaries[other].get());
+      const bool otherIsBody = otherBody && otherBody->isDynamic();
+      if (otherIsBody && other < b) continue;  // that pair was done
+      contacts.clear();
+      body->contactsWith(*mBoundaries[other], clearance, contacts);
+      if (contacts.empty()) continue;
+      involve(body);
+      if (otherIsBody) involve(otherBody);
+      for (const RigidContact& c : contacts) {
+        ContactConstraint constraint;
+        constraint.a = body->body();
+        constraint.b = otherIsBody ? otherBody->body() : nullptr;
+        constraint.point = c.point;
+        constraint.normal = c.normal;
+        constraint.depth = c.depth;
+        if (!otherIsBody) constraint.surfaceVelocity = mBoundaries[other]->velocityAt(c.point.cast<Real>()).cast<double>();
+        constraint.friction = otherIsBody ? std::sqrt(body->body()->friction() * otherBody->body()->friction())
+                                          : body->body()->friction();
+        constraint.restitution = otherIsBody ? std::max(body->body()->restitution(), otherBody->body()->restitution())
+                                             : body->body()->restitution();
+        group.push_back(constraint);
+      }
+    }
+  }
+  if (group.empty()) return;
+  std::vector<RigidPose> before;
+  for (MovingBoundary* body : involved) {
+    before.push_back(body->pose());
+    for (const RigidContact& c : body->restingContacts()) {
+      ContactConstraint constraint;
+      constraint.a = body->body();
+      constraint.point = c.point;
+      constraint.normal = c.normal;
+      constraint.depth = c.depth;
+      constraint.friction = body->body()->friction();
+      constraint.restitution = body->body()->restitution();
+      group.push_back(constraint);
+    }
+  }
+  solveContacts(group);
+  for (std::size_t k = 0; k < involved.size(); ++k) involved[k]->settle(before[k], atRest, clearance);
 }
 
 TriangleMesh Simulation::solidsMesh() const {

@@ -19,6 +19,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -125,6 +126,57 @@ TEST(BakeBodies, DeformingSequenceResumesBitIdentical) {
     }
   EXPECT_LT(largest, 1e-6f);
   EXPECT_NE(readTextFile(ref.solids(1)), readTextFile(ref.solids(12)));
+}
+
+TEST(BakeBodies, ACrateDroppedOnAFloatingCrateDoesNotPassThroughIt) {
+  // Two crates of density 600 in the pool: one floating, one dropped onto it from 10 cm.
+  // In no frame does a vertex of either lie inside the other (1 mm allowed), and the
+  // upper ends above the lower.
+  const std::string crate = kAssets + "/crate.obj";
+  const fs::path scene = writeScene(
+      "stack",
+      R"({"name": "crate", "mesh": ")" + crate + R"(", "translate": [0.15, 0.15, 0.13], "dynamic": {"density": 600}},
+         {"name": "upper", "mesh": ")" + crate + R"(", "translate": [0.16, 0.14, 0.30], "rotate": [0, 0, 10], "dynamic": {"density": 600}})",
+      R"([{"name": "L", "type": "body", "obstacle": "crate"}, {"name": "U", "type": "body", "obstacle": "upper"}])");
+  const fs::path out = scratch() / "stack";
+  const fs::path log = scratch() / "stack.log";
+  ASSERT_EQ(waitFor(spawn({"bake", scene.string(), "-o", out.string()}, log)), 0) << readLog(log);
+  const OutputLayout layout(out);
+  // Each crate's box in its own frame: the inside test of a box given its 8 corners.
+  const auto inside = [](const TriangleMesh& mesh, const TriangleMesh::Group& box, const Eigen::Vector3f& p) {
+    std::vector<Eigen::Vector3f> corners;
+    for (std::size_t t = box.begin; t < box.end; ++t)
+      for (std::uint32_t v : mesh.triangles[t]) corners.push_back(mesh.vertices[v]);
+    Eigen::Vector3f centre = Eigen::Vector3f::Zero();
+    for (const auto& c : corners) centre += c / float(corners.size());
+    // Inside by more than 1 mm: in front of no face plane grown by -1 mm.
+    for (std::size_t t = box.begin; t < box.end; ++t) {
+      const auto& tri = mesh.triangles[t];
+      Eigen::Vector3f n = (mesh.vertices[tri[1]] - mesh.vertices[tri[0]]).cross(mesh.vertices[tri[2]] - mesh.vertices[tri[0]]);
+      n.normalize();
+      if (n.dot(centre - mesh.vertices[tri[0]]) > 0) n = -n;  // outward
+      if (n.dot(p - mesh.vertices[tri[0]]) > -0.001f) return false;
+    }
+    return true;
+  };
+  for (int frame = 1; frame <= 12; ++frame) {
+    const TriangleMesh solids = readObj(layout.solids(frame));
+    ASSERT_EQ(solids.groups.size(), 3u);  // tank, crate, upper
+    const TriangleMesh::Group &lower = solids.groups[1], &upper = solids.groups[2];
+    int overlaps = 0;
+    for (std::size_t t = upper.begin; t < upper.end; ++t)
+      for (std::uint32_t v : solids.triangles[t]) overlaps += inside(solids, lower, solids.vertices[v]) ? 1 : 0;
+    for (std::size_t t = lower.begin; t < lower.end; ++t)
+      for (std::uint32_t v : solids.triangles[t]) overlaps += inside(solids, upper, solids.vertices[v]) ? 1 : 0;
+    EXPECT_EQ(overlaps, 0) << "frame " << frame;
+  }
+  const std::string probes = readTextFile(layout.probes());
+  const std::string last = probes.substr(probes.rfind('\n', probes.size() - 2) + 1);
+  std::vector<double> values;
+  std::stringstream row(last);
+  for (std::string cell; std::getline(row, cell, ',');) values.push_back(std::stod(cell));
+  ASSERT_EQ(values.size(), 13u);  // t, L_x .. L_vz, U_x .. U_vz
+  EXPECT_GT(values[9], values[3] + 0.05);  // the upper's centre above the lower's
 }
 
 TEST(BakeBodies, BadMovingSolidInputExits2NamingThePath) {

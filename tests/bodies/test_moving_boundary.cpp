@@ -173,4 +173,77 @@ TEST(RigidBody, FallsFreelyThenRestsOnTheFloor) {
   EXPECT_NEAR(cube.center().x(), 0.25, 1e-6);
 }
 
+TEST(RigidBody, ACubeDroppedOnAnotherRestsOnIt) {
+  // No fluid: a 0.1 m cube on the floor, a second dropped onto it from 0.1 m above.
+  // The upper comes to rest on the lower's top, which stays on the floor.
+  SimulationSettings settings;
+  settings.fluid.spacing = 0.01f;
+  Simulation sim(settings);
+  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(0.5f, 0.5f, 0.6f)));
+  const std::size_t lower = sim.addBoundary(floatingCube(Vec3r(0.25f, 0.25f, 0.0f), 0.1f, 800, "lower"));
+  const std::size_t upper = sim.addBoundary(floatingCube(Vec3r(0.26f, 0.25f, 0.2f), 0.1f, 800, "upper"));
+  sim.advanceTo(1.0);
+  const MovingBoundary &a = *sim.movingSolid(lower), &b = *sim.movingSolid(upper);
+  EXPECT_NEAR(a.center().z(), 0.05, 1e-3);
+  EXPECT_NEAR(b.center().z(), 0.15, 2e-3);
+  EXPECT_LT(a.velocity().linear.norm(), 1e-2);
+  EXPECT_LT(b.velocity().linear.norm(), 1e-2);
+  EXPECT_NEAR(b.center().x(), 0.26, 2e-3);  // landed flat: no slide, no topple
+}
+
+TEST(RigidBody, TwoBodiesMeetingHeadOnExchangeMomentumAndDoNotPass) {
+  // No gravity, no fluid: cube A at 1 m/s meets cube B at rest (equal masses, no
+  // restitution): both go on at 0.5 m/s together, the momentum kept.
+  SimulationSettings settings;
+  settings.fluid.spacing = 0.01f;
+  settings.solver.gravity = Vec3r::Zero();
+  Simulation sim(settings);
+  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(1.0f, 0.5f, 0.5f)));
+  const std::size_t ia = sim.addBoundary(floatingCube(Vec3r(0.2f, 0.25f, 0.2f), 0.1f, 800, "a"));
+  const std::size_t ib = sim.addBoundary(floatingCube(Vec3r(0.4f, 0.25f, 0.2f), 0.1f, 800, "b"));
+  auto& a = const_cast<MovingBoundary&>(*sim.movingSolid(ia));
+  const MovingBoundary& b = *sim.movingSolid(ib);
+  a.body()->setVelocity(Vec3d(1, 0, 0), Vec3d::Zero());
+  a.applyImpulse(Vec3d::Zero(), Vec3d::Zero());  // take the body's velocity
+
+  double closest = 1;
+  for (double t = 0.01; t <= 0.3 + 1e-9; t += 0.01) {
+    sim.advanceTo(t);
+    closest = std::min(closest, (b.center().x() - 0.05) - (a.center().x() + 0.05));  // gap between the faces
+  }
+  const double massA = a.body()->mass(), massB = b.body()->mass();  // equal to float round-off
+  const Vec3d momentum = massA * a.velocity().linear + massB * b.velocity().linear;
+  EXPECT_NEAR(momentum.x(), massA * 1.0, 1e-9 * massA);
+  EXPECT_NEAR(momentum.y(), 0.0, 1e-9);
+  EXPECT_NEAR(a.velocity().linear.x(), 0.5, 1e-3);
+  EXPECT_NEAR(b.velocity().linear.x(), 0.5, 1e-3);
+  EXPECT_GT(closest, -1e-3);  // never more than 1 mm into each other
+  EXPECT_LT(a.velocity().angular.norm(), 1e-6);
+}
+
+TEST(RigidBody, APrescribedPaddlePushesABodyAlongTheFloor) {
+  // No fluid: a keyframed plate moving +x at 0.4 m/s meets a cube resting on the floor
+  // and pushes it; the cube stays in front of the plate, never inside it.
+  SimulationSettings settings;
+  settings.fluid.spacing = 0.01f;
+  Simulation sim(settings);
+  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(1.0f, 0.5f, 0.5f)));
+  std::vector<scene::Keyframe> keys(2);
+  keys[1].t = 1.0;
+  keys[1].translate = {0.4, 0, 0};
+  sim.addBoundary(std::make_unique<MovingBoundary>(boxObstacle(Vec3r(0.05f, 0.1f, 0.005f), Vec3r(0.07f, 0.4f, 0.2f), "plate"),
+                                                   KinematicMotion::fromKeyframes(keys, Vec3d::Zero())));
+  const std::size_t index = sim.addBoundary(floatingCube(Vec3r(0.2f, 0.25f, 0.0f), 0.1f, 800));
+  const MovingBoundary& cube = *sim.movingSolid(index);
+  for (double t = 0.05; t <= 0.8 + 1e-9; t += 0.05) {
+    sim.advanceTo(t);
+    const double plateFront = 0.07 + 0.4 * t, cubeBack = cube.center().x() - 0.05;
+    ASSERT_GT(cubeBack, plateFront - 1e-3) << "t = " << t;
+  }
+  // Contact from t = 0.2 s: by 0.8 s the plate's front is at 0.39 m and the cube just ahead.
+  EXPECT_NEAR(cube.center().x() - 0.05, 0.39, 0.01);
+  EXPECT_NEAR(cube.velocity().linear.x(), 0.4, 0.05);
+  EXPECT_NEAR(cube.center().z(), 0.05, 1e-3);
+}
+
 } // namespace cascade::test
