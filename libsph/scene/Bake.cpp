@@ -131,6 +131,23 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
                      std::to_string(first) + ")");
   result.firstFrame = first;
   result.lastFrame = last;
+  // Refuse, within seconds and before allocating, a bake the machine cannot hold.
+  const MemoryEstimate memory = estimateBakeMemory(scene);
+  const double available = availableMemory();
+  if (!options.ignoreMemory && available > 0 && memory.bytes > available) {
+    const auto gib = [](double bytes) {
+      std::ostringstream text;
+      const double value = bytes / double(1 << 30);
+      if (value < 10) text << std::setprecision(2) << value;
+      else text << std::fixed << std::setprecision(0) << value;
+      return text.str();
+    };
+    std::ostringstream counts;
+    counts << std::setprecision(2) << memory.fluidParticles << " particles, " << memory.boundarySamples
+           << " boundary samples at spacing " << scene.fluid.spacing << " m";
+    throw InputError("bake: needs about " + gib(memory.bytes) + " GiB (" + counts.str() + "), this machine has " +
+                     gib(available) + " GiB available (a coarser fluid.spacing, or --ignore-memory to try anyway)");
+  }
   Progress progress(options.log, options.progressTerminal);
 
   // The resolved scene first: a failed bake still says what it ran.

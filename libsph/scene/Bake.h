@@ -30,6 +30,8 @@ struct BakeOptions {
   bool resume = true;                ///< continue from a matching checkpoint
   std::ostream* log = nullptr;       ///< messages and progress (null: silent)
   int progressTerminal = -1;         ///< -1 detect, 0 plain lines, 1 in-place line
+  /// Bake even when the memory estimate (estimateBakeMemory) exceeds what the machine has.
+  bool ignoreMemory = false;
   /// Set asynchronously (SIGINT/SIGTERM handler) to stop after the current step.
   const volatile std::sig_atomic_t* stopFlag = nullptr;
 };

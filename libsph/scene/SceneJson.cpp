@@ -222,6 +222,17 @@ public:
   }
 
   /// Rejects keys that were never asked for, suggesting the nearest known one.
+  /// Fails on the first key not in `known`, naming the nearest (before reading: a
+  /// misspelt required block is then named, not reported missing).
+  void expectOnly(const std::vector<std::string>& known) const {
+    for (auto it = mValue.begin(); it != mValue.end(); ++it) {
+      if (std::find(known.begin(), known.end(), it.key()) != known.end()) continue;
+      const std::string near = nearestWord(it.key(), known);
+      fail(pathOf(it.key()), near.empty() ? "unknown key (known keys: " + joinWords(known) + ")"
+                                          : "unknown key (did you mean '" + near + "'?)");
+    }
+  }
+
   void finish() const {
     for (auto it = mValue.begin(); it != mValue.end(); ++it) {
       if (std::find(mKnown.begin(), mKnown.end(), it.key()) != mKnown.end()) continue;
@@ -519,6 +530,8 @@ int Output::frameCount() const {
 Scene parseScene(const json& value, const std::string& fileLabel, const fs::path& baseDir) {
   const Context context{fileLabel, baseDir};
   ObjectReader top(context, value, "");
+  top.expectOnly({"name", "description", "size", "gravity", "fluid", "solver", "boundaries", "output", "camera",
+                  "lights", "probes"});
   Scene scene;
   scene.name = top.string("name", scene.name);
   if (scene.name.empty() || scene.name.find('/') != std::string::npos)
@@ -816,6 +829,22 @@ bool parseIndex(const std::string& text, std::size_t& index) {
   index = std::stoul(text);
   return true;
 }
+
+/// True if `root` holds a value at the dotted path (a preset's key the scene file sets itself).
+bool hasJsonPath(const json& root, const std::string& path) {
+  const json* node = &root;
+  for (const std::string& part : splitPath(path, path)) {
+    std::size_t index = 0;
+    if (node->is_array() && parseIndex(part, index) && index < node->size()) {
+      node = &(*node)[index];
+    } else if (node->is_object() && node->contains(part)) {
+      node = &(*node)[part];
+    } else {
+      return false;
+    }
+  }
+  return true;
+}
 } // namespace
 
 void setJsonPath(json& root, const std::string& path, const json& value, const std::string& label,
@@ -922,8 +951,11 @@ Scene loadScene(const fs::path& file, const std::vector<std::string>& overrides)
       }
       const json& preset = presets[size];
       if (!preset.is_object()) throw InputError(label + ": presets." + size + ": must be an object");
+      // A value the scene file sets itself beats the preset's (and is validated as given).
+      const json explicitValues = raw;
       for (auto it = preset.begin(); it != preset.end(); ++it)
-        setJsonPath(raw, it.key(), it.value(), label + ": presets." + size + ":", false);
+        if (!hasJsonPath(explicitValues, it.key()))
+          setJsonPath(raw, it.key(), it.value(), label + ": presets." + size + ":", false);
     }
   }
   // 3. Parse with defaults.

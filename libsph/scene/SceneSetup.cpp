@@ -1,8 +1,8 @@
 #include "libsph/scene/SceneSetup.h"
 
 #include "libsph/Errors.h"
-#include "libsph/bodies/MassProperties.h"
 #include "libsph/bodies/DeformingMesh.h"
+#include "libsph/bodies/MassProperties.h"
 #include "libsph/bodies/MovingBoundary.h"
 #include "libsph/boundary/BoxBoundary.h"
 #include "libsph/boundary/MeshBoundary.h"
@@ -13,9 +13,12 @@
 
 #include <Eigen/Geometry>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <fstream>
 #include <ostream>
 #include <unordered_map>
 
@@ -304,6 +307,50 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
          << " holds (faster steps carry particles into obstacles or gain energy; README, Solvers and their limits): "
             "steps use "
          << cap << "\n";
+}
+
+MemoryEstimate estimateBakeMemory(const Scene& scene) {
+  MemoryEstimate estimate;
+  const double s = scene.fluid.spacing;
+  for (const FluidBlock& block : scene.fluid.blocks) {
+    double count = 1;
+    for (int k = 0; k < 3; ++k) count *= std::max(1.0, std::floor((block.box.max[k] - block.box.min[k]) / s));
+    estimate.fluidParticles += count;
+  }
+  for (const Emitter& emitter : scene.fluid.emitters) {
+    const double area = emitter.shape == "disk" ? 3.14159265358979 * emitter.radius * emitter.radius
+                                                : emitter.size[0] * emitter.size[1];
+    const double rate = emitter.rate > 0 ? emitter.rate : emitter.speed * area / (s * s * s);
+    double count = rate * std::max(0.0, std::min(emitter.end, scene.output.endTime) - emitter.start);
+    if (emitter.maxCount > 0) count = std::min(count, double(emitter.maxCount));
+    estimate.fluidParticles += count;
+  }
+  // Type I samples half a spacing apart on the flat solids.
+  const double perArea = 1.0 / (0.25 * s * s);
+  const auto boxArea = [](const Vec3& size) { return 2 * (size[0] * size[1] + size[1] * size[2] + size[0] * size[2]); };
+  const Boundaries& b = scene.boundaries;
+  if (b.tank) {
+    const Vec3 size{b.tank->max[0] - b.tank->min[0], b.tank->max[1] - b.tank->min[1], b.tank->max[2] - b.tank->min[2]};
+    estimate.boundarySamples += perArea * (boxArea(size) - size[0] * size[1]);
+  }
+  for (const Slope& slope : b.slopes) estimate.boundarySamples += perArea * boxArea(slope.size);
+  double extent = 1.0;  // planes are sampled over the scene's extent (setUpSimulation)
+  if (b.domain)
+    for (int k = 0; k < 3; ++k) extent = std::max(extent, b.domain->max[k] - b.domain->min[k]);
+  estimate.boundarySamples += perArea * extent * extent * double(b.planes.size());
+  estimate.bytes = kBytesPerFluidParticle * estimate.fluidParticles + kBytesPerBoundarySample * estimate.boundarySamples;
+  return estimate;
+}
+
+double availableMemory() {
+  std::ifstream meminfo("/proc/meminfo");
+  std::string key;
+  double kilobytes = 0;
+  std::string unit;
+  while (meminfo >> key >> kilobytes >> unit)
+    if (key == "MemAvailable:") return kilobytes * 1024.0;
+  const long pages = ::sysconf(_SC_PHYS_PAGES), pageSize = ::sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && pageSize > 0 ? double(pages) * double(pageSize) : 0.0;
 }
 
 int deepestFluidLayers(const Scene& scene) {

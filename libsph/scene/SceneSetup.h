@@ -31,6 +31,21 @@ SimulationSettings simulationSettings(const Scene& scene);
 /// (kDfsphStillWaterLayers) or asks for a CFL factor above the one it holds (kDfsphMaxCfl).
 void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* log);
 
+/// What a bake of the scene is estimated to need before anything is allocated: the
+/// fluid particles (the blocks' lattices and what the emitters put out by the end
+/// time or their limit) at kBytesPerFluidParticle each (state and neighbour lists),
+/// and the type I boundary samples (the tank's, slopes' and planes' area at half a
+/// spacing apart; meshes' are small beside them) at kBytesPerBoundarySample each.
+/// Measured on the production tower: 205,905 particles and 3.45 M samples peak at 316 MB.
+struct MemoryEstimate {
+  double fluidParticles = 0, boundarySamples = 0, bytes = 0;
+};
+constexpr double kBytesPerFluidParticle = 1024, kBytesPerBoundarySample = 32;
+MemoryEstimate estimateBakeMemory(const Scene& scene);
+/// Memory this process may still take, bytes: MemAvailable (/proc/meminfo), else the
+/// physical memory; 0 if unknown.
+double availableMemory();
+
 /// The most particle layers any fluid block stacks along gravity (its extent along
 /// gravity over the spacing); 0 without blocks or gravity.
 int deepestFluidLayers(const Scene& scene);

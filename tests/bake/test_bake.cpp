@@ -17,6 +17,7 @@
 #include <fcntl.h>
 
 #include <chrono>
+#include <algorithm>
 #include <filesystem>
 #include <string>
 #include <thread>
@@ -167,6 +168,34 @@ TEST_F(Bake, BadSceneExits2AndKeepsEarlierOutput) {
   EXPECT_EQ(run(args, out.string() + ".log"), 2);
   EXPECT_NE(readLog(out.string() + ".log").find("did you mean 'fluid.spacing'"), std::string::npos);
   fs::remove_all(out);
+}
+
+TEST_F(Bake, ABakeTooLargeForTheMachineIsRefusedBeforeAllocating) {
+  // The dam break at 20 micrometres: about 10^12 particles. Refused in seconds with the
+  // estimate, exit 2, before anything is written (an earlier bake's output stays).
+  const fs::path out = freshDir("huge");
+  std::vector<std::string> args = bakeArgs(out);
+  ASSERT_EQ(run(args, out.string() + ".log"), 0);
+  const std::string sceneBefore = readTextFile(OutputLayout(out).scene());
+  args.push_back("--set");
+  args.push_back("fluid.spacing=0.00002");
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(run(args, out.string() + ".log"), 2);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 20.0);
+  const std::string message = readLog(out.string() + ".log");
+  EXPECT_NE(message.find("bake: needs about "), std::string::npos) << message;
+  EXPECT_NE(message.find(" GiB available (a coarser fluid.spacing, or --ignore-memory to try anyway)"), std::string::npos)
+      << message;
+  EXPECT_EQ(std::count(message.begin(), message.end(), '\n'), 1) << message;  // one line
+  EXPECT_EQ(readTextFile(OutputLayout(out).scene()), sceneBefore);
+  EXPECT_TRUE(fs::exists(OutputLayout(out).particles(12)));
+  fs::remove_all(out);
+}
+
+TEST(Cli, AMistypedSubcommandIsNamedWithTheNearest) {
+  const fs::path log = freshDir("mistyped").string() + ".log";
+  EXPECT_EQ(run({"surfce", "out/x"}, log), 2);
+  EXPECT_EQ(readLog(log), "cascade: unknown subcommand 'surfce' (did you mean 'surface'?) (see cascade --help)\n");
 }
 
 TEST_F(Bake, UnstableBakeExits3NamingTheParticle) {

@@ -107,6 +107,31 @@ TEST(SceneJson, PresetsAndSetOverrides) {
   EXPECT_EQ(tank.boundaries.tank->max[0], 2.0);
 }
 
+TEST(SceneJson, AnExplicitValueBeatsThePreset) {
+  // The scene file's own fluid.spacing wins over the chosen preset's, and an invalid
+  // one is refused whatever the preset.
+  const fs::path file = tempDir("explicit") / "scene.json";
+  const auto scene = [&](const std::string& spacing) {
+    writeTextAtomically(file, R"({"name": "p", "size": "production",
+      "presets": {"seed": {"fluid.spacing": 0.05, "solver.cfl": 0.3}, "production": {"fluid.spacing": 0.01}},
+      "fluid": {"spacing": )" + spacing + R"(, "blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})");
+    return file;
+  };
+  EXPECT_EQ(loadScene(scene("0.05")).fluid.spacing, 0.05);
+  const Scene seed = loadScene(scene("0.04"), {"size=seed"});
+  EXPECT_EQ(seed.fluid.spacing, 0.04);
+  EXPECT_EQ(seed.solver.cfl, 0.3);  // the preset's other keys still apply
+  EXPECT_EQ(loadScene(scene("0.04"), {"size=seed", "fluid.spacing=0.03"}).fluid.spacing, 0.03);  // --set beats both
+  for (const char* bad : {"-1", "\"abc\""}) {
+    try {
+      loadScene(scene(bad));
+      ADD_FAILURE() << "spacing " << bad << " was accepted";
+    } catch (const InputError& error) {
+      EXPECT_NE(std::string(error.what()).find("fluid.spacing: must be"), std::string::npos) << error.what();
+    }
+  }
+}
+
 TEST(SceneJson, UnknownKeySuggestsNearest) {
   EXPECT_EQ(loadError(R"({"name": "t", "fluid": {"spacng": 0.01, "blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})"),
             "scene.json: fluid.spacng: unknown key (did you mean 'spacing'?)");
@@ -114,6 +139,9 @@ TEST(SceneJson, UnknownKeySuggestsNearest) {
             "scene.json: fluid.blocks[0].velocty: unknown key (did you mean 'velocity'?)");
   EXPECT_EQ(loadError(R"({"name": "t", "solvr": {}, "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})"),
             "scene.json: solvr: unknown key (did you mean 'solver'?)");
+  // A misspelt required block is named as unknown, not reported missing.
+  EXPECT_EQ(loadError(R"({"name": "t", "fluidd": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})"),
+            "scene.json: fluidd: unknown key (did you mean 'fluid'?)");
 }
 
 TEST(SceneJson, WrongTypes) {

@@ -189,3 +189,17 @@ TEST(SceneSetup, BlockParticlesNextToAMeshAreLeftOut) {
 }
 
 } // namespace cascade::scene
+
+TEST(SceneSetup, MemoryEstimateCountsTheLatticesAndTheWalls) {
+  // A 1 x 0.5 x 0.2 m block at 1 cm (100 x 50 x 20 particles) in a 1 x 0.5 x 0.4 m tank
+  // (floor and walls 1.1 m^2, samples half a spacing apart: 4 / spacing^2 per m^2).
+  Scene scene;
+  scene.fluid.spacing = 0.01;
+  scene.fluid.blocks.push_back(FluidBlock{Box{{0, 0, 0}, {1, 0.5, 0.2}}, {0, 0, 0}});
+  scene.boundaries.tank = Box{{0, 0, 0}, {1, 0.5, 0.4}};
+  const MemoryEstimate estimate = estimateBakeMemory(scene);
+  EXPECT_DOUBLE_EQ(estimate.fluidParticles, 100.0 * 50 * 20);
+  EXPECT_NEAR(estimate.boundarySamples, (0.5 + 2 * 0.4 + 2 * 0.2) * 4e4, 1e-6);
+  EXPECT_DOUBLE_EQ(estimate.bytes, kBytesPerFluidParticle * 1e5 + kBytesPerBoundarySample * estimate.boundarySamples);
+  EXPECT_GT(availableMemory(), 1e8);  // this machine has more than 100 MB
+}

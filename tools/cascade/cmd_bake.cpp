@@ -29,9 +29,10 @@ std::filesystem::path defaultOutDir(const scene::Scene& scene, const std::string
 }
 
 scene::BakeResult runBake(const scene::Scene& scene, const std::filesystem::path& outDir,
-                          const std::string& framesText, bool restart) {
+                          const std::string& framesText, bool restart, bool ignoreMemory) {
   scene::BakeOptions options;
   options.outDir = outDir;
+  options.ignoreMemory = ignoreMemory;
   if (!framesText.empty()) options.frames = parseFrameRange(framesText);
   options.resume = !restart;
   options.log = &std::cerr;
@@ -49,7 +50,7 @@ void addBakeCommand(CLI::App& app) {
   struct Args {
     std::string scene, out, frames;
     std::vector<std::string> sets;
-    bool restart = false;
+    bool restart = false, ignoreMemory = false;
   };
   auto args = std::make_shared<Args>();
   command->add_option("scene", args->scene, "scene file (JSON)")->required();
@@ -57,9 +58,11 @@ void addBakeCommand(CLI::App& app) {
   command->add_option("--frames", args->frames, "frames A-B to write (1-based, inclusive)");
   command->add_option("--set", args->sets, "override a scene value: KEY=VALUE (dotted path)")->take_all();
   command->add_flag("--restart", args->restart, "ignore a checkpoint and bake from the start");
+  command->add_flag("--ignore-memory", args->ignoreMemory,
+                    "bake even if the memory estimate exceeds what this machine has available");
   command->callback([args] {
     const scene::Scene scene = scene::loadScene(args->scene, args->sets);
-    runBake(scene, defaultOutDir(scene, args->out), args->frames, args->restart);
+    runBake(scene, defaultOutDir(scene, args->out), args->frames, args->restart, args->ignoreMemory);
   });
 }
 

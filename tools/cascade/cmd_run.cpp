@@ -109,7 +109,7 @@ void addRunCommand(CLI::App& app) {
   struct Args {
     std::string scene, out;
     std::vector<std::string> sets;
-    bool noRender = false, noSurface = false;
+    bool noRender = false, noSurface = false, ignoreMemory = false;
   };
   auto args = std::make_shared<Args>();
   command->add_option("scene", args->scene, "scene file (JSON)")->required();
@@ -117,6 +117,8 @@ void addRunCommand(CLI::App& app) {
   command->add_option("--set", args->sets, "override a scene value: KEY=VALUE (dotted path)")->take_all();
   command->add_flag("--no-surface", args->noSurface, "stop after the bake");
   command->add_flag("--no-render", args->noRender, "stop after surfacing");
+  command->add_flag("--ignore-memory", args->ignoreMemory,
+                    "bake even if the memory estimate exceeds what this machine has available");
   command->callback([args] {
     const auto start = std::chrono::steady_clock::now();
     const scene::Scene scene = scene::loadScene(args->scene, args->sets);
@@ -131,7 +133,7 @@ void addRunCommand(CLI::App& app) {
       std::cerr << "run: bake: scene unchanged (input hash " << bakeHash << "), skipped\n";
     } else {
       std::cerr << "run: bake " << scene.name << " -> " << outDir.string() << "\n";
-      runBake(scene, outDir, "", false);
+      runBake(scene, outDir, "", false, args->ignoreMemory);
     }
     if (!args->noSurface) {
       const std::string surfaceHash = scene::hexHash(scene::fnv1a("surface", 7, std::stoull(bakeHash, nullptr, 16)));

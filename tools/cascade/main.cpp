@@ -2,8 +2,12 @@
 #include "Commands.h"
 
 #include "libsph/Errors.h"
+#include "libsph/scene/SceneJson.h"
 
+#include <algorithm>
 #include <iostream>
+#include <string>
+#include <vector>
 
 int main(int argc, char** argv) {
   using namespace cascade;
@@ -19,6 +23,18 @@ int main(int argc, char** argv) {
   app.footer(
       "Exit status: 0 success; 2 bad input; 3 the simulation became unstable; 1 anything else.");
 
+  // A mistyped subcommand is named, with the nearest one (CLI11 alone says only that one is required).
+  if (argc > 1 && argv[1][0] != '-') {
+    std::vector<std::string> names;
+    for (const CLI::App* command : app.get_subcommands([](const CLI::App*) { return true; })) names.push_back(command->get_name());
+    const std::string given = argv[1];
+    if (std::find(names.begin(), names.end(), given) == names.end()) {
+      const std::string near = scene::nearestWord(given, names);
+      std::cerr << "cascade: unknown subcommand '" << given << "'"
+                << (near.empty() ? "" : " (did you mean '" + near + "'?)") << " (see cascade --help)\n";
+      return kExitBadInput;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& success) {  // --help: printed by CLI11, exit 0
