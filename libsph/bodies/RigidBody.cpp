@@ -51,55 +51,19 @@ void RigidBody::integrate(const Vec3d& force, const Vec3d& torque, double dt) {
 }
 
 void RigidBody::resolveContacts(const std::vector<RigidContact>& contacts) {
-  if (contacts.empty()) return;
-  // Positions: the smallest translation that clears every contact along its normal
-  // (a few passes over the set: two walls at a corner add up).
-  Vec3d shift = Vec3d::Zero();
-  for (int pass = 0; pass < 4; ++pass)
-    for (const RigidContact& c : contacts) {
-      const double missing = c.depth - shift.dot(c.normal);
-      if (missing > 0) shift += missing * c.normal;
-    }
-  mCenter += shift;
-  // Velocities: sequential impulses on the accumulated impulse (normal >= 0, friction
-  // within mu times it).
-  const Mat3d inverse = worldInverseInertia();
-  const double inverseMass = 1.0 / mReference.mass;
-  std::vector<double> normalImpulse(contacts.size(), 0.0);
-  std::vector<Vec3d> frictionImpulse(contacts.size(), Vec3d::Zero());
-  std::vector<double> bounce(contacts.size(), 0.0);
-  for (std::size_t k = 0; k < contacts.size(); ++k) {
-    const Vec3d r = contacts[k].point + shift - mCenter;
-    const double approach = (mVelocity + mAngularVelocity.cross(r)).dot(contacts[k].normal);
-    bounce[k] = approach < 0 ? -mRestitution * approach : 0.0;
+  std::vector<ContactConstraint> group;
+  group.reserve(contacts.size());
+  for (const RigidContact& c : contacts) {
+    ContactConstraint constraint;
+    constraint.a = this;
+    constraint.point = c.point;
+    constraint.normal = c.normal;
+    constraint.depth = c.depth;
+    constraint.friction = mFriction;
+    constraint.restitution = mRestitution;
+    group.push_back(constraint);
   }
-  const auto effectiveInverseMass = [&](const Vec3d& r, const Vec3d& direction) {
-    return inverseMass + direction.dot((inverse * r.cross(direction)).cross(r));
-  };
-  const auto applyImpulse = [&](const Vec3d& r, const Vec3d& impulse) {
-    mVelocity += inverseMass * impulse;
-    mAngularVelocity += inverse * r.cross(impulse);
-  };
-  for (int iteration = 0; iteration < 16; ++iteration)
-    for (std::size_t k = 0; k < contacts.size(); ++k) {
-      const Vec3d n = contacts[k].normal;
-      const Vec3d r = contacts[k].point + shift - mCenter;
-      Vec3d relative = mVelocity + mAngularVelocity.cross(r);
-      const double vn = relative.dot(n);
-      const double total = std::max(0.0, normalImpulse[k] + (bounce[k] - vn) / effectiveInverseMass(r, n));
-      applyImpulse(r, (total - normalImpulse[k]) * n);
-      normalImpulse[k] = total;
-      relative = mVelocity + mAngularVelocity.cross(r);
-      const Vec3d tangential = relative - relative.dot(n) * n;
-      const double slide = tangential.norm();
-      if (slide <= 0) continue;
-      const Vec3d t = tangential / slide;
-      Vec3d friction = frictionImpulse[k] - (slide / effectiveInverseMass(r, t)) * t;
-      const double limit = mFriction * normalImpulse[k];
-      if (friction.norm() > limit) friction *= limit / friction.norm();
-      applyImpulse(r, friction - frictionImpulse[k]);
-      frictionImpulse[k] = friction;
-    }
+  solveContacts(group);
 }
 
 void solveContacts(const std::vector<ContactConstraint>& contacts) {

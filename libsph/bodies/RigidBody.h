@@ -65,7 +65,7 @@ public:
     mVelocity += impulse / mReference.mass;
     mAngularVelocity += worldInverseInertia() * angular;
   }
-  /// Clears the contacts (positions, then velocities); see the file comment.
+  /// Clears the contacts with solids at rest (positions, then velocities; solveContacts).
   void resolveContacts(const std::vector<RigidContact>& contacts);
   /// Moves the centre of mass by `shift` (a contact's position correction).
   void shift(const Vec3d& shift) { mCenter += shift; }
