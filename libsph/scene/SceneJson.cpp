@@ -233,14 +233,7 @@ public:
     }
   }
 
-  void finish() const {
-    for (auto it = mValue.begin(); it != mValue.end(); ++it) {
-      if (std::find(mKnown.begin(), mKnown.end(), it.key()) != mKnown.end()) continue;
-      const std::string near = nearestWord(it.key(), mKnown);
-      fail(pathOf(it.key()), near.empty() ? "unknown key (known keys: " + joinWords(mKnown) + ")"
-                                          : "unknown key (did you mean '" + near + "'?)");
-    }
-  }
+  void finish() const { expectOnly(mKnown); }
 
 private:
   const Context& mContext;
