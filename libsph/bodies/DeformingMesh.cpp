@@ -1,11 +1,11 @@
 #include "libsph/bodies/DeformingMesh.h"
 
 #include "libsph/Errors.h"
+#include "libsph/bodies/RigidBody.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <map>
 
 namespace cascade {
 
@@ -47,12 +47,17 @@ std::string sequenceFramePath(const std::string& pattern, long k) {
   return pattern.substr(0, first) + number + pattern.substr(begin + 1);
 }
 
+int sequenceFirstFrame(const std::string& pattern) {
+  std::error_code error;
+  return std::filesystem::is_regular_file(sequenceFramePath(pattern, 0), error) ? 0 : 1;
+}
+
 MeshSequence loadMeshSequence(const std::string& pattern, int lastFrame, double fps, const Transform& transform,
                               const std::string& context) {
   MeshSequence sequence;
   sequence.fps = fps;
   std::error_code error;
-  sequence.firstFrame = std::filesystem::is_regular_file(sequenceFramePath(pattern, 0), error) ? 0 : 1;
+  sequence.firstFrame = sequenceFirstFrame(pattern);
   std::vector<std::uint32_t> canonical;  // first frame's welding, applied to every frame
   std::vector<std::array<std::uint32_t, 3>> fileTriangles;
   std::size_t fileVertices = 0;
@@ -68,12 +73,7 @@ MeshSequence loadMeshSequence(const std::string& pattern, int lastFrame, double 
       fileVertices = mesh.vertices.size();
       fileTriangles = mesh.triangles;
       // Weld coincident vertices (seams of the exporter) and drop the triangles that collapse.
-      canonical.resize(fileVertices);
-      std::map<std::array<float, 3>, std::uint32_t> first;
-      for (std::size_t v = 0; v < fileVertices; ++v) {
-        const Eigen::Vector3f& x = mesh.vertices[v];
-        canonical[v] = first.emplace(std::array<float, 3>{x.x(), x.y(), x.z()}, std::uint32_t(v)).first->second;
-      }
+      canonical = firstVertexAtSamePosition(mesh.vertices);
       for (const auto& t : mesh.triangles) {
         const std::array<std::uint32_t, 3> welded{canonical[t[0]], canonical[t[1]], canonical[t[2]]};
         if (welded[0] != welded[1] && welded[1] != welded[2] && welded[0] != welded[2]) sequence.triangles.push_back(welded);
@@ -169,7 +169,7 @@ void DeformingMeshBoundary::moveTo(double t) {
     // large enough for every vertex's move to the next (MeshBoundary's slack).
     mInterval = k;
     const auto &a = mSequence.frame(k), &b = mSequence.frame(k + 1);
-    const bool holds = k < mSequence.firstFrame || k >= mSequence.lastFrame();
+    const bool holds = holdsIn(k);
     mVertexVelocity.assign(a.size(), Vec3d::Zero());
     mSpeed = 0;
     double slack = 0;
@@ -183,9 +183,6 @@ void DeformingMeshBoundary::moveTo(double t) {
     TriangleMesh mesh;
     mesh.triangles = mSequence.triangles;
     mesh.vertices = a;
-    Vec3d lo = Vec3d::Constant(1e300), hi = -lo;
-    for (const Eigen::Vector3f& x : a) lo = lo.cwiseMin(x.cast<double>()), hi = hi.cwiseMax(x.cast<double>());
-    mContactPoints = sampleTrianglePoints(mesh, Real(std::max((hi - lo).norm() / 20, 1e-4)));
     mCurrent = MeshBoundary::fromMesh(std::move(mesh), name(), 1.0001 * slack + 1e-9);
   }
   mTime = t;
@@ -199,12 +196,26 @@ void DeformingMeshBoundary::moveTo(double t) {
   }
 }
 
+bool DeformingMeshBoundary::holdsIn(long k) const { return k < mSequence.firstFrame || k >= mSequence.lastFrame(); }
+
+const std::vector<SurfacePoint>& DeformingMeshBoundary::contactPoints() const {
+  if (mContactInterval != mInterval) {  // made when first asked in an interval: only rigid bodies ask
+    TriangleMesh mesh;
+    mesh.triangles = mSequence.triangles;
+    mesh.vertices = mSequence.frame(mInterval);
+    Vec3d lo = Vec3d::Constant(1e300), hi = -lo;
+    for (const Eigen::Vector3f& x : mesh.vertices) lo = lo.cwiseMin(x.cast<double>()), hi = hi.cwiseMax(x.cast<double>());
+    mContactPoints = sampleTrianglePoints(mesh, Real(contactPointGap((hi - lo).norm())));
+    mContactInterval = mInterval;
+  }
+  return mContactPoints;
+}
+
 Boundary::Deformation DeformingMeshBoundary::deformation() const {
   Deformation d;
   d.interval = mInterval;
   d.weight = Real(mWeight);
-  const bool holds = mInterval < mSequence.firstFrame || mInterval >= mSequence.lastFrame();
-  d.rate = holds ? Real(0) : Real(mSequence.fps);
+  d.rate = holdsIn(mInterval) ? Real(0) : Real(mSequence.fps);
   return d;
 }
 

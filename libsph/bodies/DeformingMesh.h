@@ -23,6 +23,7 @@
 #include "libsph/boundary/MeshBoundary.h"
 
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <ostream>
 #include <string>
@@ -41,6 +42,9 @@ struct MeshSequence {
   /// Vertices of frame k (clamped to the frames there are).
   const std::vector<Eigen::Vector3f>& frame(long k) const;
 };
+
+/// The sequence's first frame: 0 if the pattern's frame-0 file exists, else 1.
+int sequenceFirstFrame(const std::string& pattern);
 
 /// The file of frame k of a sequence pattern: the run of '#' replaced by k, zero
 /// padded to the run's length ("paddle.####.obj", 7: "paddle.0007.obj").
@@ -89,10 +93,13 @@ public:
   /// Its vertices before the last step (empty after resetTo()).
   const std::vector<Eigen::Vector3f>& previousVertices() const { return mPreviousVertices; }
   /// Points for contacts with rigid bodies: the surface of the interval's first frame
-  /// sampled a twentieth of its size apart, as vertex weights.
-  const std::vector<SurfacePoint>& contactPoints() const { return mContactPoints; }
+  /// sampled contactPointGap() apart, as vertex weights (made when first asked in an
+  /// interval; not thread-safe, asked by the serial contact pass).
+  const std::vector<SurfacePoint>& contactPoints() const;
 
 private:
+  /// True if interval k is before the first frame or after the last (a frame holds).
+  bool holdsIn(long k) const;
   /// Interval k (frames k and k + 1) and weight at time t.
   void intervalAt(double t, long& k, double& weight) const;
   std::vector<Eigen::Vector3f> verticesAt(long k, double weight) const;
@@ -105,7 +112,8 @@ private:
   std::unique_ptr<MeshBoundary> mCurrent;          ///< the surface now (grids built per frame interval)
   std::vector<Eigen::Vector3f> mPreviousVertices;  ///< before the last step (none after resetTo)
   std::vector<Vec3d> mVertexVelocity;  ///< this interval's, per vertex
-  std::vector<SurfacePoint> mContactPoints;
+  mutable std::vector<SurfacePoint> mContactPoints;
+  mutable long mContactInterval = std::numeric_limits<long>::min();
   double mSpeed = 0, mMaxSpeed = 0;
   double mStepReach = 0;  ///< farthest a vertex moved in the last step, m
 };

@@ -28,14 +28,13 @@ std::vector<Vec3d> hullOf(const Boundary& reference) {
   return hull;
 }
 
-/// The surface sampled a twentieth of its bounds' diagonal apart.
+/// The surface sampled contactPointGap() apart.
 std::vector<Vec3d> contactPointsOf(const Boundary& reference) {
-  const TriangleMesh mesh = reference.surfaceMesh();
   Vec3r lo, hi;
   reference.bounds(lo, hi);
-  const Real gap = std::max((hi - lo).norm() / Real(20), Real(1e-4));
   std::vector<Vec3d> points;
-  for (const Vec3r& p : sampleTriangles(mesh, gap)) points.push_back(p.cast<double>());
+  for (const Vec3r& p : sampleTriangles(reference.surfaceMesh(), Real(contactPointGap(double((hi - lo).norm())))))
+    points.push_back(p.cast<double>());
   return points;
 }
 

@@ -53,17 +53,21 @@ void RigidBody::integrate(const Vec3d& force, const Vec3d& torque, double dt) {
 void RigidBody::resolveContacts(const std::vector<RigidContact>& contacts) {
   std::vector<ContactConstraint> group;
   group.reserve(contacts.size());
-  for (const RigidContact& c : contacts) {
-    ContactConstraint constraint;
-    constraint.a = this;
-    constraint.point = c.point;
-    constraint.normal = c.normal;
-    constraint.depth = c.depth;
-    constraint.friction = mFriction;
-    constraint.restitution = mRestitution;
-    group.push_back(constraint);
-  }
+  for (const RigidContact& c : contacts) group.push_back(contactConstraint(*this, nullptr, c));
   solveContacts(group);
+}
+
+ContactConstraint contactConstraint(RigidBody& a, RigidBody* b, const RigidContact& c, const Vec3d& surfaceVelocity) {
+  ContactConstraint constraint;
+  constraint.a = &a;
+  constraint.b = b;
+  constraint.point = c.point;
+  constraint.normal = c.normal;
+  constraint.depth = c.depth;
+  constraint.surfaceVelocity = b ? Vec3d::Zero() : surfaceVelocity;
+  constraint.friction = b ? std::sqrt(a.friction() * b->friction()) : a.friction();
+  constraint.restitution = b ? std::max(a.restitution(), b->restitution()) : a.restitution();
+  return constraint;
 }
 
 void solveContacts(const std::vector<ContactConstraint>& contacts) {

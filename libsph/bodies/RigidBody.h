@@ -23,6 +23,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <iosfwd>
 #include <vector>
 
@@ -97,6 +98,17 @@ struct ContactConstraint {
   Vec3d surfaceVelocity = Vec3d::Zero();
   double friction = 0, restitution = 0;
 };
+
+/// The contact `c` of body `a` as a constraint: against body `b` (friction sqrt(mu_a mu_b),
+/// restitution the larger of the two) or, b null, against a solid whose surface moves at
+/// `surfaceVelocity` at the point (a's friction and restitution).
+ContactConstraint contactConstraint(RigidBody& a, RigidBody* b, const RigidContact& c,
+                                    const Vec3d& surfaceVelocity = Vec3d::Zero());
+
+/// A solid's contact points with other moving solids are its surface sampled this far
+/// apart: a twentieth of the diagonal of its bounds (vertices, edges and faces, so
+/// that boxes stacked face to face touch).
+inline double contactPointGap(double boundsDiagonal) { return std::max(boundsDiagonal / 20, 1e-4); }
 
 /// Clears a group of contacts between bodies and the solids around them at once, so
 /// that a stack rests (the floor holds the lower box while the upper one is pushed

@@ -20,7 +20,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <map>
 #include <set>
 
 namespace cascade {
@@ -47,14 +46,7 @@ void sampleMesh(const TriangleMesh& mesh, Real maxGap, std::size_t* rowSampledTr
   };
   // Vertices at the same position (seams left by hole filling) are one vertex:
   // each position is sampled once, and edges are keyed by these canonical indices.
-  std::vector<std::uint32_t> canonical(mesh.vertices.size());
-  {
-    std::map<std::array<float, 3>, std::uint32_t> first;
-    for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
-      const Eigen::Vector3f& x = mesh.vertices[v];
-      canonical[v] = first.emplace(std::array<float, 3>{x.x(), x.y(), x.z()}, std::uint32_t(v)).first->second;
-    }
-  }
+  const std::vector<std::uint32_t> canonical = firstVertexAtSamePosition(mesh.vertices);
   // Vertices: once each.
   std::vector<char> used(mesh.vertices.size(), 0);
   for (const auto& t : mesh.triangles) used[canonical[t[0]]] = used[canonical[t[1]]] = used[canonical[t[2]]] = 1;

@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <string_view>
 
@@ -444,6 +445,16 @@ TriangleMesh readObj(const std::filesystem::path& path) {
       if (!hasNormal[v]) { mesh.computeNormals(); break; }
   }
   return mesh;
+}
+
+std::vector<std::uint32_t> firstVertexAtSamePosition(const std::vector<Eigen::Vector3f>& vertices) {
+  std::vector<std::uint32_t> first(vertices.size());
+  std::map<std::array<float, 3>, std::uint32_t> seen;
+  for (std::size_t v = 0; v < vertices.size(); ++v) {
+    const Eigen::Vector3f& x = vertices[v];
+    first[v] = seen.emplace(std::array<float, 3>{x.x(), x.y(), x.z()}, std::uint32_t(v)).first->second;
+  }
+  return first;
 }
 
 double surfaceArea(const TriangleMesh& mesh) {

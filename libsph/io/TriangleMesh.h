@@ -44,6 +44,10 @@ enum class ObjAxes {
 /// Area of the mesh's triangles (m^2 for a mesh in metres).
 double surfaceArea(const TriangleMesh& mesh);
 
+/// For each vertex, the index of the first vertex at exactly its position (its own
+/// index if none comes before it): the welding of seams that repeat a position.
+std::vector<std::uint32_t> firstVertexAtSamePosition(const std::vector<Eigen::Vector3f>& vertices);
+
 /// Writes OBJ ("v", "vn", "g", "f a//a b//b c//c"), atomically. Numbers have 9
 /// significant digits (trailing zeros dropped): they read back to the same float. Blocks of
 /// lines are formatted in parallel (TBB) and written in order, so the file is the

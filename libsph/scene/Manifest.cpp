@@ -47,9 +47,8 @@ std::string sceneInputHash(const Scene& scene) {
       addFile(obstacle.mesh);
       continue;
     }
-    std::error_code error;
-    if (fs::is_regular_file(sequenceFramePath(obstacle.mesh, 0), error)) addFile(sequenceFramePath(obstacle.mesh, 0));
-    for (int f = 1; f <= scene.output.frameCount(); ++f) addFile(sequenceFramePath(obstacle.mesh, f));
+    for (int f = sequenceFirstFrame(obstacle.mesh); f <= scene.output.frameCount(); ++f)
+      addFile(sequenceFramePath(obstacle.mesh, f));
   }
   return hexHash(hash);
 }

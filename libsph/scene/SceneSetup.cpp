@@ -27,6 +27,15 @@ namespace cascade::scene {
 namespace {
 Vec3r toVec(const Vec3& v) { return Vec3r(Real(v[0]), Real(v[1]), Real(v[2])); }
 
+/// How far an infinite plane's type I samples reach around its point: the scene's
+/// extent (its domain's largest side, at least 1 m).
+double planeExtent(const Boundaries& b) {
+  double extent = 1.0;
+  if (b.domain)
+    for (int k = 0; k < 3; ++k) extent = std::max(extent, b.domain->max[k] - b.domain->min[k]);
+  return extent;
+}
+
 Eigen::Matrix<Real, 3, 3> slopeRotation(const Slope& slope) {
   const Eigen::Vector3d axis = Eigen::Vector3d(slope.axis[0], slope.axis[1], slope.axis[2]).normalized();
   const double radians = slope.angle * M_PI / 180.0;
@@ -169,11 +178,8 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
   }
   for (std::size_t i = 0; i < b.planes.size(); ++i) {
     // Type I samples of an infinite plane cover the scene's extent around its point.
-    double extent = 1.0;
-    if (b.domain)
-      for (int k = 0; k < 3; ++k) extent = std::max(extent, b.domain->max[k] - b.domain->min[k]);
     BoundaryPtr plane = PlaneBoundary::infinite(toVec(b.planes[i].point), toVec(b.planes[i].normal).normalized(),
-                                                Real(extent));
+                                                Real(planeExtent(b)));
     plane->setName("plane" + std::to_string(i + 1));
     simulation.addBoundary(std::move(plane));
   }
@@ -334,10 +340,7 @@ MemoryEstimate estimateBakeMemory(const Scene& scene) {
     estimate.boundarySamples += perArea * (boxArea(size) - size[0] * size[1]);
   }
   for (const Slope& slope : b.slopes) estimate.boundarySamples += perArea * boxArea(slope.size);
-  double extent = 1.0;  // planes are sampled over the scene's extent (setUpSimulation)
-  if (b.domain)
-    for (int k = 0; k < 3; ++k) extent = std::max(extent, b.domain->max[k] - b.domain->min[k]);
-  estimate.boundarySamples += perArea * extent * extent * double(b.planes.size());
+  estimate.boundarySamples += perArea * planeExtent(b) * planeExtent(b) * double(b.planes.size());
   estimate.bytes = kBytesPerFluidParticle * estimate.fluidParticles + kBytesPerBoundarySample * estimate.boundarySamples;
   return estimate;
 }

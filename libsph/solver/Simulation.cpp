@@ -616,36 +616,17 @@ void Simulation::moveSolids(double dt) {
       if (contacts.empty()) continue;
       involve(body);
       if (otherIsBody) involve(otherBody);
-      for (const RigidContact& c : contacts) {
-        ContactConstraint constraint;
-        constraint.a = body->body();
-        constraint.b = otherIsBody ? otherBody->body() : nullptr;
-        constraint.point = c.point;
-        constraint.normal = c.normal;
-        constraint.depth = c.depth;
-        if (!otherIsBody) constraint.surfaceVelocity = mBoundaries[other]->velocityAt(c.point.cast<Real>()).cast<double>();
-        constraint.friction = otherIsBody ? std::sqrt(body->body()->friction() * otherBody->body()->friction())
-                                          : body->body()->friction();
-        constraint.restitution = otherIsBody ? std::max(body->body()->restitution(), otherBody->body()->restitution())
-                                             : body->body()->restitution();
-        group.push_back(constraint);
-      }
+      for (const RigidContact& c : contacts)
+        group.push_back(otherIsBody ? contactConstraint(*body->body(), otherBody->body(), c)
+                                    : contactConstraint(*body->body(), nullptr, c,
+                                                        mBoundaries[other]->velocityAt(c.point.cast<Real>()).cast<double>()));
     }
   }
   if (group.empty()) return;
   std::vector<RigidPose> before;
   for (MovingBoundary* body : involved) {
     before.push_back(body->pose());
-    for (const RigidContact& c : body->restingContacts()) {
-      ContactConstraint constraint;
-      constraint.a = body->body();
-      constraint.point = c.point;
-      constraint.normal = c.normal;
-      constraint.depth = c.depth;
-      constraint.friction = body->body()->friction();
-      constraint.restitution = body->body()->restitution();
-      group.push_back(constraint);
-    }
+    for (const RigidContact& c : body->restingContacts()) group.push_back(contactConstraint(*body->body(), nullptr, c));
   }
   solveContacts(group);
   for (std::size_t k = 0; k < involved.size(); ++k) involved[k]->settle(before[k], atRest, clearance);
