@@ -134,6 +134,7 @@ SceneView readSceneView(const fs::path& file) {
 void yUpToWorld(TriangleMesh& mesh) {
   for (auto& v : mesh.vertices) v = Eigen::Vector3f(v.x(), -v.z(), v.y());
   for (auto& n : mesh.normals) n = Eigen::Vector3f(n.x(), -n.z(), n.y());
+  for (auto& u : mesh.velocities) u = Eigen::Vector3f(u.x(), -u.z(), u.y());
 }
 
 Box3f yUpToWorld(const Box3f& box) {
@@ -151,13 +152,20 @@ std::string lowercase(std::string text) {
   return text;
 }
 
-/// 'y', 'z' or 0 from the comment lines at the head of an OBJ file.
+/// 'y', 'z' or 0 from the comment lines at the head of an OBJ file ("# ...") or
+/// in a PLY header ("comment ...").
 char objHeaderAxis(const fs::path& path) {
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   std::string line;
-  for (int n = 0; n < 20 && std::getline(in, line); ++n) {
+  const bool ply = path.extension() == ".ply";
+  for (int n = 0; n < 40 && std::getline(in, line); ++n) {
     if (line.empty()) continue;
-    if (line[0] != '#') break;
+    if (ply) {
+      if (line.rfind("end_header", 0) == 0) break;
+      if (line.rfind("comment", 0) != 0) continue;
+    } else if (line[0] != '#') {
+      break;
+    }
     const std::string text = lowercase(line);
     for (const char axis : {'y', 'z'}) {
       const std::string a(1, axis);
@@ -282,12 +290,17 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
   {
     std::set<int> onDisk;
     std::vector<std::string> extensions = options.particles ? std::vector<std::string>{"vdb", "ply"}
-                                                            : std::vector<std::string>{"obj"};
+                                                            : std::vector<std::string>{"obj", "ply"};
     const fs::path dir = options.particles ? layout.particlesDir() : layout.meshDir();
     for (const auto& extension : extensions)
       for (int frame : listFrames(dir, options.particles ? "particles" : "fluid", extension)) onDisk.insert(frame);
     auto pathOf = [&](int frame) {
-      if (!options.particles) return layout.mesh(frame);
+      if (!options.particles) {  // the newer of fluid.NNNN.obj and .ply (the last surfacing's format)
+        const fs::path obj = layout.mesh(frame), ply = layout.mesh(frame, "ply");
+        if (!fs::exists(ply, error)) return obj;
+        if (!fs::exists(obj, error)) return ply;
+        return fs::last_write_time(ply, error) > fs::last_write_time(obj, error) ? ply : obj;
+      }
       const fs::path vdb = layout.particles(frame), ply = layout.particlesPly(frame);
       return fs::exists(vdb, error) || !fs::exists(ply, error) ? vdb : ply;
     };
@@ -300,7 +313,7 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
     }
     if (frames.empty())
       throw InputError(dir.string() + (options.particles ? ": no particle caches (particles.NNNN.vdb or .ply)"
-                                                         : ": no fluid meshes (fluid.NNNN.obj; run `cascade surface`, "
+                                                         : ": no fluid meshes (fluid.NNNN.obj or .ply; run `cascade surface`, "
                                                            "or render the particles with --particles)") +
                        " in the frame range");
   }
@@ -340,7 +353,7 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
           for (const auto& input : frames) {
             if (!fs::is_regular_file(input.path, error)) continue;
             try {
-              const Box3f bounds = meshBounds(readObj(input.path));
+              const Box3f bounds = meshBounds(readMesh(input.path));
               if (bounds.isEmpty()) continue;
               const double zScore = insideFraction(bounds, *reference);
               const double yScore = insideFraction(yUpToWorld(bounds), *reference);
@@ -364,7 +377,7 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
   }
 
   auto loadMesh = [&](const fs::path& path) {
-    TriangleMesh mesh = readObj(path);
+    TriangleMesh mesh = readMesh(path);
     const std::size_t n = mesh.vertices.size();
     for (const auto& t : mesh.triangles)
       if (t[0] >= n || t[1] >= n || t[2] >= n) throw InputError(path.string() + ": face index out of range");

@@ -1,11 +1,14 @@
 // Anisotropic kernels after Yu & Turk 2013 (LevelSetMethods.h, AnisotropicKernels.h).
 #include "surfacing/AnisotropicKernels.h"
 #include "surfacing/LevelSetMethods.h"
+#include "surfacing/detail/BandVelocity.h"
 #include "surfacing/detail/BlockRasterizer.h"
 #include "surfacing/detail/ImplicitToLevelSet.h"
 #include "surfacing/detail/Profile.h"
 
 #include <cstring>
+
+#include <tbb/parallel_for.h>
 
 namespace cascade::surfacing {
 
@@ -23,12 +26,15 @@ static_assert(kDim == 8, "a leaf row is 8 floats");
 typedef float Row8 __attribute__((vector_size(32)));
 
 /// Adds the density of kernels `candidates[0, count)` to the 512 values of the leaf
-/// at `origin` (VDB order, z fastest), rows of 8 voxels along z at a time.
+/// at `origin` (VDB order, z fastest), rows of 8 voxels along z at a time; with
+/// `velocity` (per kernel), also the density-weighted velocity to `outVelocity`
+/// (512 x, then 512 y, then 512 z).
 /// Compiled for AVX2 (a row is one 8-float register) and for the baseline; both
 /// give the same bits (the same IEEE operations in the same order, no contraction).
 __attribute__((target_clones("avx2", "default")))
 void accumulateLeaf(const AnisotropicKernels& kernels, const std::vector<detail::VoxelBox>& boxes, const openvdb::Coord& origin,
-                    const std::uint32_t* candidates, std::size_t count, double dx, float* out) {
+                    const std::uint32_t* candidates, std::size_t count, double dx, float* out,
+                    const Eigen::Vector3f* velocity, float* outVelocity) {
   const float step = float(dx);
   const Row8 rowZ = {0, 1, 2, 3, 4, 5, 6, 7};
   const Eigen::Vector3d originWorld = Eigen::Vector3d(origin.x(), origin.y(), origin.z()) * dx;
@@ -39,6 +45,7 @@ void accumulateLeaf(const AnisotropicKernels& kernels, const std::vector<detail:
     hi.minComponent(origin.offsetBy(kDim - 1));
     const Eigen::Matrix3f& G = kernels.transform[k];
     const float weight = kernels.weight[k];
+    const Eigen::Vector3f v = velocity ? velocity[k] : Eigen::Vector3f::Zero();
     const Eigen::Vector3f p = (kernels.center[k].cast<double>() - originWorld).cast<float>();
     // q = G d (Yu & Turk eq. 13: W = det(G) P(|G r|)) changes by G's columns times
     // the voxel size per voxel along x, y, z.
@@ -65,9 +72,20 @@ void accumulateLeaf(const AnisotropicKernels& kernels, const std::vector<detail:
         float* row = out + (((x - origin.x()) << 6) | ((y - origin.y()) << 3));
         Row8 t = (Row8{} + (1.0f - aa) - (2.0f * ab) * rowZ) - zzbb, sum;
         t = t > 0.0f ? t : Row8{};
+        const Row8 w = weight * t * t * t;
         std::memcpy(&sum, row, sizeof sum);
-        sum += weight * t * t * t;
+        sum += w;
         std::memcpy(row, &sum, sizeof sum);
+        if (velocity) {  // the same weights, times the kernel's velocity (BandVelocity.h)
+          const std::ptrdiff_t offset = row - out;
+          for (int axis = 0; axis < 3; ++axis) {
+            float* velocityRow = outVelocity + axis * 512 + offset;
+            Row8 sumV;
+            std::memcpy(&sumV, velocityRow, sizeof sumV);
+            sumV += v[axis] * w;
+            std::memcpy(velocityRow, &sumV, sizeof sumV);
+          }
+        }
       }
     }
   }
@@ -75,8 +93,7 @@ void accumulateLeaf(const AnisotropicKernels& kernels, const std::vector<detail:
 
 } // namespace
 
-openvdb::FloatGrid::Ptr anisotropicLevelSet(const std::vector<Vec3r>& positions,
-                                            const LevelSetSettings& settings) {
+ParticleLevelSet anisotropicLevelSet(const std::vector<Vec3r>& positions, const LevelSetSettings& settings) {
   const double s = settings.spacing, dx = settings.voxelSize;
   AnisotropicKernelSettings kernelSettings;
   kernelSettings.spacing = s;
@@ -86,20 +103,40 @@ openvdb::FloatGrid::Ptr anisotropicLevelSet(const std::vector<Vec3r>& positions,
   const ParticleGrid grid(positions, cellSize);
   profile.lap("anisotropic: grid");
   const AnisotropicKernels kernels = computeAnisotropicKernels(grid, kernelSettings);
+  std::vector<Eigen::Vector3f> velocity;  // per kernel (sorted slot): the particle's own
+  if (settings.velocities) {
+    velocity.resize(kernels.center.size());
+    const std::vector<std::uint32_t>& index = grid.sortedIndex();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, velocity.size(), 8192), [&](const auto& range) {
+      for (std::size_t k = range.begin(); k != range.end(); ++k) velocity[k] = (*settings.velocities)[index[k]].cast<float>();
+    });
+  }
   profile.lap("anisotropic: kernels");
   static const std::vector<std::uint8_t> none;
+
+  detail::VelocityLeaves velocityLeaves;
 
   auto field = std::make_shared<openvdb::FloatTree>(0.0f);
   const std::vector<detail::VoxelBox> boxes = detail::supportVoxelBoxes(kernels.center, kernels.halfExtent, dx);
   detail::rasterizeBlocks(*field, kernels.center, boxes, settings.skipInterior ? kernels.interior : none, dx,
                           [&](const openvdb::Coord& origin, const std::vector<std::uint32_t>& candidates, float* out) {
-    accumulateLeaf(kernels, boxes, origin, candidates.data(), candidates.size(), dx, out);
+    if (velocity.empty()) {
+      accumulateLeaf(kernels, boxes, origin, candidates.data(), candidates.size(), dx, out, nullptr, nullptr);
+      return true;
+    }
+    alignas(64) float sums[3 * 512] = {};
+    accumulateLeaf(kernels, boxes, origin, candidates.data(), candidates.size(), dx, out, velocity.data(), sums);
+    // Known where the density is not negligible (1e-4 of the surface's iso-value):
+    // the far tails of the widest kernels would bring velocities from further away.
+    velocityLeaves.add(origin, out, sums, sums + 512, sums + 1024, float(1e-4 * kAnisotropicIso));
     return true;
   });
   profile.lap("anisotropic: rasterize blocks");
-  auto levelSet = detail::implicitToLevelSet(field, float(kAnisotropicIso), true, dx, settings.halfWidth);
+  ParticleLevelSet result{detail::implicitToLevelSet(field, float(kAnisotropicIso), true, dx, settings.halfWidth),
+                          nullptr};
   profile.lap("anisotropic: to level set");
-  return levelSet;
+  if (!velocity.empty()) result.velocity = velocityLeaves.release();
+  return result;
 }
 
 } // namespace cascade::surfacing

@@ -2,10 +2,15 @@
 /// @brief The zero iso-surface of a level set as a triangle mesh. Adaptivity 0:
 ///        our own dual contouring mesher (DualContourMesher.h, Nielson 2004; the
 ///        same mesh as OpenVDB's volumeToMesh at adaptivity 0, several times
-///        faster), outward oriented. Adaptivity > 0: OpenVDB tools::volumeToMesh
-///        (dual contouring with sharp-feature aware adaptivity, Museth et al.),
-///        quads split along their shorter diagonal, the library's orientation
-///        (MeshCleanup makes it outward). Vertices are shared. Internal to
+///        faster), outward oriented. Adaptivity > 0: OpenVDB tools::VolumeToMesh
+///        (dual contouring that merges cells where the surface is flat, Museth
+///        et al.), quads split along their shorter diagonal, the library's
+///        orientation (MeshCleanup makes it outward), with an error bound the
+///        library does not give: a triangle whose centroid or corner lies more
+///        than kAdaptiveTolerance voxels from the zero crossing (|phi| there), or
+///        that crosses another triangle (CGAL, MeshChecks.h), has the voxels
+///        around it meshed again unmerged (OpenVDB's adaptivity mask), up to
+///        three rounds, else the uniform mesh. Vertices are shared. Internal to
 ///        surfacing (includes OpenVDB).
 #pragma once
 
@@ -14,6 +19,10 @@
 #include <openvdb/openvdb.h>
 
 namespace cascade::surfacing {
+
+/// Largest distance (voxels) of an adaptive mesh's triangle centroids and corners
+/// from the level set's zero crossing.
+constexpr double kAdaptiveTolerance = 0.45;
 
 /// `adaptivity` in [0, 1]: 0 gives a uniform mesh, 1 merges flat regions the most.
 TriangleMesh levelSetToMesh(const openvdb::FloatGrid& grid, double adaptivity);

@@ -1,6 +1,7 @@
 // Smooth spheres after Zhu & Bridson 2005 (LevelSetMethods.h).
 #include "surfacing/AnisotropicKernels.h"
 #include "surfacing/LevelSetMethods.h"
+#include "surfacing/detail/BandVelocity.h"
 #include "surfacing/detail/BlockRasterizer.h"
 #include "surfacing/detail/ImplicitToLevelSet.h"
 
@@ -11,8 +12,7 @@ namespace cascade::surfacing {
 // half a spacing above it.
 const double kSmoothSpheresRadius = 0.55;
 
-openvdb::FloatGrid::Ptr smoothSpheresLevelSet(const std::vector<Vec3r>& positions,
-                                              const LevelSetSettings& settings) {
+ParticleLevelSet smoothSpheresLevelSet(const std::vector<Vec3r>& positions, const LevelSetSettings& settings) {
   using LeafT = openvdb::FloatTree::LeafNodeType;
   const double s = settings.spacing, dx = settings.voxelSize;
   const double R = 2.0 * s;  // neighbourhood radius, "twice the particle spacing"
@@ -40,26 +40,12 @@ openvdb::FloatGrid::Ptr smoothSpheresLevelSet(const std::vector<Vec3r>& position
       lo.maxComponent(origin);
       hi.minComponent(origin.offsetBy(D - 1));
       const Eigen::Vector3f p = (center[k].cast<double>() - originWorld).cast<float>();  // leaf-local
-      for (int x = lo.x(); x <= hi.x(); ++x) {
-        const float ddx = float(x - origin.x()) * step - p.x();
-        for (int y = lo.y(); y <= hi.y(); ++y) {
-          const float ddy = float(y - origin.y()) * step - p.y();
-          const float r2xy = (ddx * ddx + ddy * ddy) * inverseR2;
-          if (r2xy >= 1) continue;
-          const int row = ((x - origin.x()) << 6) | ((y - origin.y()) << 3);
-          for (int z = lo.z(); z <= hi.z(); ++z) {
-            const float ddz = float(z - origin.z()) * step - p.z();
-            const float r2 = r2xy + ddz * ddz * inverseR2;
-            if (r2 >= 1) continue;
-            const float t = 1 - r2, w = t * t * t;  // Zhu & Bridson k(s)
-            const int i = row | (z - origin.z());
-            weight[i] += w;
-            sumX[i] += w * p.x();
-            sumY[i] += w * p.y();
-            sumZ[i] += w * p.z();
-          }
-        }
-      }
+      detail::forEachVoxelInSphere(origin, lo, hi, p, inverseR2, step, [&](int i, float w) {
+        weight[i] += w;
+        sumX[i] += w * p.x();
+        sumY[i] += w * p.y();
+        sumZ[i] += w * p.z();
+      });
     }
     bool any = false;
     for (int x = 0; x < D; ++x)
@@ -78,7 +64,11 @@ openvdb::FloatGrid::Ptr smoothSpheresLevelSet(const std::vector<Vec3r>& position
         }
     return any;
   });
-  return detail::implicitToLevelSet(field, 0.0f, false, dx, settings.halfWidth);
+  ParticleLevelSet result{detail::implicitToLevelSet(field, 0.0f, false, dx, settings.halfWidth), nullptr};
+  if (settings.velocities)
+    result.velocity = detail::isotropicKernelVelocities(
+        center, detail::inSortedOrder(*settings.velocities, grid.sortedIndex()), R, dx, interior);
+  return result;
 }
 
 } // namespace cascade::surfacing

@@ -13,6 +13,7 @@
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/LevelSetUtil.h>
+#include <openvdb/tools/ValueTransformer.h>
 #include <tbb/parallel_for.h>
 
 #include <chrono>
@@ -43,6 +44,14 @@ std::string surfaceMethodName(SurfaceMethod method) {
   }
   return "?";
 }
+
+MeshFormat parseMeshFormat(const std::string& name) {
+  if (name == "obj") return MeshFormat::Obj;
+  if (name == "ply") return MeshFormat::Ply;
+  throw InputError("--mesh-format: unknown mesh format '" + name + "' (obj, ply)");
+}
+
+std::string meshFormatName(MeshFormat format) { return format == MeshFormat::Ply ? "ply" : "obj"; }
 
 SurfaceFilter parseSurfaceFilter(const std::string& name) {
   if (name == "none") return SurfaceFilter::None;
@@ -81,14 +90,14 @@ void initializeOpenVdb() {
   std::call_once(once, [] { openvdb::initialize(); });
 }
 
-void writeSurfaceVdb(const fs::path& path, openvdb::FloatGrid& levelSet, bool withDensity,
-                     const SurfaceOptions& options, double spacing, bool yUp) {
+void writeSurfaceVdb(const fs::path& path, openvdb::FloatGrid& levelSet, openvdb::Vec3SGrid* velocity,
+                     bool withDensity, const SurfaceOptions& options, double spacing, bool yUp) {
   openvdb::GridPtrVec grids;
   openvdb::FloatGrid::Ptr surface = levelSet.copy();  // shares the tree; own metadata and transform
   surface->setName("surface");
   surface->setGridClass(openvdb::GRID_LEVEL_SET);
+  openvdb::math::Mat4d rotation = openvdb::math::Mat4d::identity();
   if (yUp) {  // rotate the lattice: world (x, y, z) -> (x, z, -y)
-    openvdb::math::Mat4d rotation = openvdb::math::Mat4d::identity();
     rotation.setToRotation(openvdb::math::X_AXIS, -M_PI / 2);
     surface->transform().postMult(rotation);
   }
@@ -96,6 +105,24 @@ void writeSurfaceVdb(const fs::path& path, openvdb::FloatGrid& levelSet, bool wi
   surface->insertMeta("cascade_spacing", openvdb::FloatMetadata(float(spacing)));
   surface->insertMeta("cascade_up_axis", openvdb::StringMetadata(yUp ? "y" : "z"));
   grids.push_back(surface);
+  if (velocity) {
+    openvdb::Vec3SGrid::Ptr v;
+    if (yUp) {  // world-space vectors turn with the lattice
+      v = velocity->deepCopy();
+      v->transform().postMult(rotation);
+      openvdb::tools::foreach(v->beginValueOn(), [](const openvdb::Vec3SGrid::ValueOnIter& value) {
+        const openvdb::Vec3s w = *value;
+        value.setValue(openvdb::Vec3s(w.x(), w.z(), -w.y()));
+      });
+    } else {
+      v = velocity->copy();  // shares the tree
+    }
+    v->setName("v");
+    // Half floats on disk (3 significant digits: ample for motion blur), as
+    // Houdini writes velocity fields by default; readers get floats back.
+    v->setSaveFloatAsHalf(true);
+    grids.push_back(v);
+  }
   if (withDensity) {
     auto density = surface->deepCopy();
     openvdb::tools::sdfToFogVolume(*density);
@@ -115,8 +142,14 @@ void writeSurfaceVdb(const fs::path& path, openvdb::FloatGrid& levelSet, bool wi
 
 } // namespace
 
-SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spacing,
-                               const SurfaceOptions& options, const fs::path& vdbPath, const fs::path& objPath) {
+SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spacing, const SurfaceOptions& options,
+                               const fs::path& vdbPath, const fs::path& meshPath) {
+  return surfaceParticles(positions, {}, spacing, options, vdbPath, meshPath);
+}
+
+SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, const std::vector<Vec3r>& velocities,
+                               double spacing, const SurfaceOptions& options, const fs::path& vdbPath,
+                               const fs::path& meshPath) {
   initializeOpenVdb();
   SurfaceResult result;
   if (options.particleSpacing > 0) spacing = options.particleSpacing;
@@ -131,6 +164,12 @@ SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spaci
   settings.spacing = spacing;
   settings.radius = options.particleRadius;
   settings.halfWidth = std::max(2, options.halfWidth);
+  if (options.velocity && !velocities.empty()) {
+    if (velocities.size() != positions.size())
+      throw InputError("surface: " + std::to_string(velocities.size()) + " velocities for " +
+                       std::to_string(positions.size()) + " particles");
+    settings.velocities = &velocities;
+  }
 
   auto start = Clock::now();
   double cpuStart = processCpuSeconds();
@@ -142,20 +181,23 @@ SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spaci
     cpuStart = cpuNow;
   };
   openvdb::FloatGrid::Ptr levelSet;
+  openvdb::Vec3STree::Ptr kernelVelocity;
   if (positions.empty() || !(voxelSize > 0)) {
     levelSet = openvdb::createLevelSet<openvdb::FloatGrid>(voxelSize > 0 ? voxelSize : 1.0, settings.halfWidth);
   } else {
-    switch (options.method) {
-      case SurfaceMethod::UnionOfSpheres: levelSet = surfacing::unionOfSpheresLevelSet(positions, settings); break;
-      case SurfaceMethod::SmoothSpheres: levelSet = surfacing::smoothSpheresLevelSet(positions, settings); break;
-      case SurfaceMethod::AnisotropicKernels: levelSet = surfacing::anisotropicLevelSet(positions, settings); break;
-    }
+    surfacing::ParticleLevelSet made = surfacing::particlesToLevelSet(options.method, positions, settings);
+    levelSet = made.surface;
+    kernelVelocity = made.velocity;
   }
   levelSet->setName("surface");
   stageDone(result.timings.rasterize, result.timings.cpu.rasterize);
 
   if (!positions.empty()) surfacing::filterLevelSet(*levelSet, options.filter, options.smoothingPasses);
   result.activeVoxels = levelSet->activeVoxelCount();
+  openvdb::Vec3SGrid::Ptr velocity;  // over the final band
+  if (kernelVelocity) velocity = surfacing::velocityOverBand(*levelSet, *kernelVelocity, settings.halfWidth);
+  kernelVelocity.reset();
+  result.hasVelocity = velocity != nullptr;
   stageDone(result.timings.filter, result.timings.cpu.filter);
 
   // The level set is final: write the VDB on a thread of its own (file I/O and
@@ -166,7 +208,7 @@ SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spaci
     vdbWriter = std::thread([&] {
       const auto writeStart = Clock::now();
       try {
-        writeSurfaceVdb(vdbPath, *levelSet, options.writeDensity, options, spacing, options.vdbYUp);
+        writeSurfaceVdb(vdbPath, *levelSet, velocity.get(), options.writeDensity, options, spacing, options.vdbYUp);
       } catch (...) {
         vdbFailure = std::current_exception();
       }
@@ -189,11 +231,16 @@ SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spaci
   cleanup.triangleBudget = options.triangleBudget;
   cleanup.remeshEdgeLength = options.remeshEdgeLength;
   surfacing::cleanupMesh(result.mesh, cleanup);
+  // Vertex velocities where they go somewhere: a PLY file, or the caller's mesh.
+  surfacing::detail::ProfileClock cleanupProfile;
+  if (velocity && (meshPath.empty() || meshPath.extension() == ".ply"))
+    result.mesh.velocities = surfacing::sampleVelocity(*velocity, result.mesh.vertices);
+  cleanupProfile.lap("cleanup: vertex velocities");
   stageDone(result.timings.cleanup, result.timings.cpu.cleanup);
 
   surfacing::detail::ProfileClock profile;
-  if (!objPath.empty()) writeSurfaceObj(objPath, result.mesh, options.objYUp);
-  profile.lap("write: obj");
+  if (!meshPath.empty()) writeSurfaceMesh(meshPath, result.mesh, options.meshYUp);
+  profile.lap("write: mesh");
   if (vdbWriter.joinable()) vdbWriter.join();
   profile.lap("write: wait for vdb");
   stageDone(result.timings.write, result.timings.cpu.write);
@@ -201,10 +248,12 @@ SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spaci
   return result;
 }
 
-void writeSurfaceObj(const fs::path& path, const TriangleMesh& mesh, bool yUp) {
-  // "# up: y|z" tells Cascade's render (and people) the file's axes.
-  if (yUp) writeObj(path, mesh, "up: y (a scene point x, y, z is stored as x, z, -y)", ObjAxes::ZUpToYUp);
-  else writeObj(path, mesh, "up: z (scene coordinates)");
+void writeSurfaceMesh(const fs::path& path, const TriangleMesh& mesh, bool yUp) {
+  // "up: y|z" tells Cascade's render, the Blender script (and people) the file's axes.
+  const std::string comment = yUp ? "up: y (a scene point x, y, z is stored as x, z, -y)" : "up: z (scene coordinates)";
+  const MeshAxes axes = yUp ? MeshAxes::ZUpToYUp : MeshAxes::AsIs;
+  if (path.extension() == ".ply") writePly(path, mesh, comment, axes);
+  else writeObj(path, mesh, comment, axes);
 }
 
 std::vector<SurfaceFrameReport> surfaceFrames(const OutputLayout& layout, const FrameRange& range,
@@ -225,8 +274,9 @@ std::vector<SurfaceFrameReport> surfaceFrames(const OutputLayout& layout, const 
       throw InputError(layout.particlesDir().string() +
                        ": no particle caches (particles.NNNN.vdb or .ply) in the frame range");
   }
-  if (!options.writeVdb && !options.writeObj)
-    throw InputError("surface: nothing to write (both the VDB and the OBJ output are off)");
+  if (!options.writeVdb && !options.writeMesh)
+    throw InputError("surface: nothing to write (both the VDB and the mesh output are off)");
+  const std::string meshExtension = meshFormatName(options.meshFormat);
 
   std::vector<SurfaceFrameReport> reports(frames.size());
   std::mutex progressMutex;
@@ -234,8 +284,8 @@ std::vector<SurfaceFrameReport> surfaceFrames(const OutputLayout& layout, const 
     for (std::size_t index = indices.begin(); index != indices.end(); ++index) {
       SurfaceFrameReport& report = reports[index];
       const int frame = report.frame = frames[index];
-      const fs::path vdbOut = layout.surface(frame), objOut = layout.mesh(frame);
-      const bool done = (!options.writeVdb || fs::exists(vdbOut)) && (!options.writeObj || fs::exists(objOut));
+      const fs::path vdbOut = layout.surface(frame), meshOut = layout.mesh(frame, meshExtension);
+      const bool done = (!options.writeVdb || fs::exists(vdbOut)) && (!options.writeMesh || fs::exists(meshOut));
       try {
         if (done && !options.force) {
           report.skipped = true;
@@ -244,9 +294,9 @@ std::vector<SurfaceFrameReport> surfaceFrames(const OutputLayout& layout, const 
           if (!fs::exists(input) && fs::exists(layout.particlesPly(frame))) input = layout.particlesPly(frame);
           const ParticleFrame particles = readParticleFrame(input);  // InputError names the file
           report.particles = particles.size();
-          SurfaceResult result = surfaceParticles(particles.position, particles.spacing, options,
+          SurfaceResult result = surfaceParticles(particles.position, particles.velocity, particles.spacing, options,
                                                   options.writeVdb ? vdbOut : fs::path(),
-                                                  options.writeObj ? objOut : fs::path());
+                                                  options.writeMesh ? meshOut : fs::path());
           report.timings = result.timings;
           report.triangles = result.mesh.triangles.size();
         }

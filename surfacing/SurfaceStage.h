@@ -4,26 +4,30 @@
 ///
 /// For every frame of a range, OUT/particles/particles.NNNN.vdb (or .ply) is
 /// turned into OUT/surface/surface.NNNN.vdb (a level set grid named "surface",
-/// class GRID_LEVEL_SET, voxel size in its transform, optionally a "density"
-/// fog grid) and OUT/mesh/fluid.NNNN.obj (triangles with outward per-vertex
-/// normals). Pipeline per frame:
+/// class GRID_LEVEL_SET, voxel size in its transform; a vector grid "v", the
+/// fluid velocity over the band, when the particles carry velocities; optionally
+/// a "density" fog grid) and OUT/mesh/fluid.NNNN.obj or .ply (triangles with
+/// outward per-vertex normals; the PLY also with per-vertex velocities).
+/// Pipeline per frame:
 ///   1. rasterize the particles into a narrow-band level set with one of the
-///      methods below (surfacing/LevelSetMethods.h says what each computes);
+///      methods below (surfacing/LevelSetMethods.h says what each computes), and
+///      their velocities into "v" with the same kernel weights;
 ///   2. filter the level set (mean curvature passes, leaf-parallel, or Gaussian
 ///      or Laplacian passes with OpenVDB LevelSetFilter; LevelSetFiltering.h);
 ///   3. mesh it (OpenVDB volumeToMesh with adaptivity);
 ///   4. clean the mesh (surfacing/MeshCleanup.h: degenerate faces, small
 ///      components, outward orientation, optional CGAL remeshing or
-///      decimation to a triangle budget, normals).
+///      decimation to a triangle budget, normals), and sample "v" at its
+///      vertices (trilinear).
 /// The voxel lattice is world aligned (voxel centres at integer multiples of
 /// the voxel size), so consecutive frames do not shimmer. Frames are
 /// independent and run in parallel (TBB), each parallel inside; the output
 /// depends only on the input and the options.
 ///
-/// Axes (scenes are z-up): the OBJ is written y-up by default, a scene point
-/// (x, y, z) stored as (x, z, -y) with a "# up: y" header line, so Blender's and
-/// Houdini's default OBJ imports show it upright (objYUp = false keeps scene
-/// axes, "# up: z"); the VDB keeps the scene's z-up coordinates by default,
+/// Axes (scenes are z-up): the mesh is written y-up by default, a scene point
+/// (x, y, z) stored as (x, z, -y) with an "up: y" header comment, so Blender's and
+/// Houdini's default OBJ imports show it upright (meshYUp = false keeps scene
+/// axes, "up: z"); the VDB keeps the scene's z-up coordinates by default,
 /// which Blender shows upright (vdbYUp = true rotates its transform for Houdini).
 ///
 /// This header has no OpenVDB or CGAL includes, so any stage can call it.
@@ -54,6 +58,15 @@ enum class SurfaceFilter { None, MeanCurvature, Gaussian, Laplacian };
 /// "union", "smooth", "anisotropic" <-> SurfaceMethod; throws InputError on an unknown name.
 SurfaceMethod parseSurfaceMethod(const std::string& name);
 std::string surfaceMethodName(SurfaceMethod method);
+/// The fluid mesh's file format.
+enum class MeshFormat {
+  Obj,  ///< Wavefront OBJ, ASCII: v, vn, f (every tool reads it; no velocities)
+  Ply,  ///< PLY, binary little-endian: x y z nx ny nz vx vy vz, faces
+};
+/// "obj", "ply" <-> MeshFormat; throws InputError on an unknown name.
+MeshFormat parseMeshFormat(const std::string& name);
+std::string meshFormatName(MeshFormat format);
+
 /// "none", "mean-curvature", "gaussian", "laplacian" <-> SurfaceFilter.
 SurfaceFilter parseSurfaceFilter(const std::string& name);
 std::string surfaceFilterName(SurfaceFilter filter);
@@ -85,10 +98,13 @@ struct SurfaceOptions {
   int halfWidth = 3;
   bool writeVdb = true;      ///< OUT/surface/surface.NNNN.vdb ("surface" grid)
   bool writeDensity = false; ///< also a "density" fog grid in that file
-  bool writeObj = true;      ///< OUT/mesh/fluid.NNNN.obj
-  /// Write OBJ vertices and normals y-up ((x, y, z) -> (x, z, -y)), so that
-  /// importers assuming y-up show the z-up scene upright. See README "Axes".
-  bool objYUp = true;
+  bool writeMesh = true;     ///< OUT/mesh/fluid.NNNN.obj or .ply
+  MeshFormat meshFormat = MeshFormat::Obj;
+  /// The "v" grid and per-vertex mesh velocities, when the particles have velocities.
+  bool velocity = true;
+  /// Write mesh vertices, normals and velocities y-up ((x, y, z) -> (x, z, -y)), so
+  /// that importers assuming y-up show the z-up scene upright. See docs "Axes".
+  bool meshYUp = true;
   /// Give the VDB a y-up transform (a lattice rotation, for Houdini); default z-up
   /// (Blender reads VDB coordinates as they are).
   bool vdbYUp = false;
@@ -118,23 +134,32 @@ struct SurfaceTimings {
 
 /// What surfacing one set of particles produced (in memory).
 struct SurfaceResult {
-  TriangleMesh mesh;           ///< cleaned, outward normals, z-up world coordinates
+  TriangleMesh mesh;           ///< cleaned, outward normals, z-up world coordinates; velocities with "v"
+  bool hasVelocity = false;    ///< a "v" grid was made
   double voxelSize = 0;
   double particleSpacing = 0;
   std::size_t activeVoxels = 0;
   SurfaceTimings timings;
 };
 
-/// Surfaces particle positions in memory and, if `vdbPath` is not empty, writes the
-/// level set (and density) there atomically; if `objPath` is not empty, also the
-/// mesh (writeSurfaceObj with options.objYUp). `spacing` 0 means estimate it.
+/// Surfaces particle positions (and, if not empty and options.velocity, their
+/// velocities) in memory and, if `vdbPath` is not empty, writes the level set (and
+/// "v", density) there atomically; if `meshPath` is not empty, also the mesh
+/// (writeSurfaceMesh with options.meshYUp, the format by the path's extension).
+/// `spacing` 0 means estimate it.
+SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, const std::vector<Vec3r>& velocities,
+                               double spacing, const SurfaceOptions& options,
+                               const std::filesystem::path& vdbPath = {},
+                               const std::filesystem::path& meshPath = {});
+/// The same without velocities.
 SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spacing,
                                const SurfaceOptions& options,
                                const std::filesystem::path& vdbPath = {},
-                               const std::filesystem::path& objPath = {});
+                               const std::filesystem::path& meshPath = {});
 
-/// Writes a mesh as OBJ, atomically, y-up ((x, y, z) -> (x, z, -y)) if `yUp`.
-void writeSurfaceObj(const std::filesystem::path& path, const TriangleMesh& mesh, bool yUp);
+/// Writes a mesh as OBJ or PLY (by the path's extension), atomically, y-up
+/// ((x, y, z) -> (x, z, -y)) if `yUp`, with an "up: y|z" header comment.
+void writeSurfaceMesh(const std::filesystem::path& path, const TriangleMesh& mesh, bool yUp);
 
 /// One frame's outcome in surfaceFrames().
 struct SurfaceFrameReport {

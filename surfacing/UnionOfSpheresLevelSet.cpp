@@ -1,5 +1,6 @@
 // Union of spheres: OpenVDB tools::ParticlesToLevelSet (LevelSetMethods.h).
 #include "surfacing/LevelSetMethods.h"
+#include "surfacing/detail/BandVelocity.h"
 
 #include <openvdb/tools/ParticlesToLevelSet.h>
 
@@ -22,15 +23,18 @@ struct SphereList {
 };
 } // namespace
 
-openvdb::FloatGrid::Ptr unionOfSpheresLevelSet(const std::vector<Vec3r>& positions,
-                                               const LevelSetSettings& settings) {
+ParticleLevelSet unionOfSpheresLevelSet(const std::vector<Vec3r>& positions, const LevelSetSettings& settings) {
   auto grid = openvdb::createLevelSet<openvdb::FloatGrid>(settings.voxelSize, settings.halfWidth);
   const double radius = settings.radius > 0 ? settings.radius : 1.0 * settings.spacing;
   openvdb::tools::ParticlesToLevelSet<openvdb::FloatGrid> raster(*grid);
   raster.setRmin(0.5);  // voxel units: keep every particle the user asked for
   raster.rasterizeSpheres(SphereList{positions, radius});
   raster.finalize(true);
-  return grid;
+  ParticleLevelSet result{grid, nullptr};
+  if (settings.velocities)
+    result.velocity = detail::isotropicKernelVelocities(positions, *settings.velocities, 2 * settings.spacing,
+                                                        settings.voxelSize, {});
+  return result;
 }
 
 } // namespace cascade::surfacing

@@ -2,7 +2,17 @@
 # Installs every Debian 12 package Cascade needs to build, test and benchmark.
 # Idempotent: packages already present are left alone; apt lists are refreshed
 # only when something is missing. Run as root on a fresh Debian 12 machine.
+# Opt-in: --blender (or CASCADE_WITH_BLENDER=1) also installs Blender and the
+# numpy its Python needs (tools/blender/, ctest -L blender, docs/blender.md).
 set -euo pipefail
+
+with_blender=${CASCADE_WITH_BLENDER:-0}
+for arg in "$@"; do
+  case "$arg" in
+    --blender) with_blender=1 ;;
+    *) echo "install-deps: unknown argument $arg (known: --blender)" >&2; exit 2 ;;
+  esac
+done
 
 PACKAGES=(
   build-essential cmake pkg-config git
@@ -12,6 +22,9 @@ PACKAGES=(
   libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox
 )
+if [ "$with_blender" = 1 ]; then
+  PACKAGES+=(blender python3-numpy)
+fi
 
 missing=()
 for pkg in "${PACKAGES[@]}"; do

@@ -29,7 +29,11 @@ struct OutputLayout {
   std::filesystem::path particles(int frame) const { return particlesDir() / ("particles." + pad(frame) + ".vdb"); }
   std::filesystem::path particlesPly(int frame) const { return particlesDir() / ("particles." + pad(frame) + ".ply"); }
   std::filesystem::path surface(int frame) const { return surfaceDir() / ("surface." + pad(frame) + ".vdb"); }
-  std::filesystem::path mesh(int frame) const { return meshDir() / ("fluid." + pad(frame) + ".obj"); }
+  std::filesystem::path mesh(int frame) const { return mesh(frame, "obj"); }
+  /// The fluid mesh of a frame in a format: "obj" or "ply".
+  std::filesystem::path mesh(int frame, const std::string& extension) const {
+    return meshDir() / ("fluid." + pad(frame) + "." + extension);
+  }
   std::filesystem::path solids(int frame) const { return geometryDir() / ("solids." + pad(frame) + ".obj"); }
   std::filesystem::path render(int frame) const { return renderDir() / ("frame." + pad(frame) + ".png"); }
 

@@ -3,6 +3,7 @@
 
 #include "libsph/Errors.h"
 #include "libsph/io/AtomicFile.h"
+#include "libsph/io/Ply.h"
 #include "libsph/io/VdbFile.h"
 
 #include <openvdb/openvdb.h>
@@ -163,126 +164,31 @@ ParticleFrame readVdbFrame(const fs::path& path) {
 
 // ---------------------------------------------------------------------------------- PLY
 
-struct PlyProperty {
-  std::string name, type;
-  bool isList = false;
-};
-struct PlyElement {
-  std::string name;
-  std::size_t count = 0;
-  std::vector<PlyProperty> properties;
-};
-
-std::size_t plyTypeSize(const std::string& type) {
-  if (type == "char" || type == "uchar" || type == "int8" || type == "uint8") return 1;
-  if (type == "short" || type == "ushort" || type == "int16" || type == "uint16") return 2;
-  if (type == "int" || type == "uint" || type == "float" || type == "int32" || type == "uint32" ||
-      type == "float32") return 4;
-  if (type == "double" || type == "float64") return 8;
-  return 0;
-}
-
-double decodePly(const std::string& type, const char* bytes) {
-  auto as = [bytes](auto value) { std::memcpy(&value, bytes, sizeof value); return double(value); };
-  if (type == "char" || type == "int8") return as(int8_t{});
-  if (type == "uchar" || type == "uint8") return as(uint8_t{});
-  if (type == "short" || type == "int16") return as(int16_t{});
-  if (type == "ushort" || type == "uint16") return as(uint16_t{});
-  if (type == "int" || type == "int32") return as(int32_t{});
-  if (type == "uint" || type == "uint32") return as(uint32_t{});
-  if (type == "float" || type == "float32") return as(float{});
-  return as(double{});
-}
-
 ParticleFrame readPlyFrame(const fs::path& path) {
-  const std::string data = readTextFile(path);
-  const std::string where = path.string() + ": ";
-  const std::size_t headerEnd = data.find("end_header");
-  if (data.compare(0, 3, "ply") != 0 || headerEnd == std::string::npos)
-    throw InputError(where + "not a PLY file");
-  std::istringstream header(data.substr(0, headerEnd));
-  std::string line, format;
-  std::vector<PlyElement> elements;
-  while (std::getline(header, line)) {
-    std::istringstream words(line);
-    std::string keyword;
-    words >> keyword;
-    if (keyword == "format") words >> format;
-    else if (keyword == "element") {
-      PlyElement element;
-      words >> element.name >> element.count;
-      elements.push_back(element);
-    } else if (keyword == "property" && !elements.empty()) {
-      PlyProperty property;
-      words >> property.type;
-      if (property.type == "list") {
-        property.isList = true;
-        std::string countType, itemType;
-        words >> countType >> itemType;
-        property.type = countType + " " + itemType;
-      }
-      words >> property.name;
-      elements.back().properties.push_back(property);
-    }
-  }
-  std::size_t bodyStart = data.find('\n', headerEnd);
-  if (bodyStart == std::string::npos) throw InputError(where + "truncated PLY header");
-  ++bodyStart;
-  if (format != "ascii" && format != "binary_little_endian")
-    throw InputError(where + "unsupported PLY format '" + format + "' (ascii or binary_little_endian)");
+  PlyReader reader(path);
+  const std::string& where = reader.where();
+  const auto& elements = reader.elements();
   const auto vertexIt = std::find_if(elements.begin(), elements.end(),
                                      [](const PlyElement& e) { return e.name == "vertex"; });
   if (vertexIt == elements.end()) throw InputError(where + "no vertex element");
-  if (vertexIt != elements.begin()) throw InputError(where + "the vertex element must come first");
   const PlyElement& vertex = *vertexIt;
   int column[9];
   const char* names[9] = {"x", "y", "z", "vx", "vy", "vz", "id", "density", "pressure"};
-  for (int k = 0; k < 9; ++k) {
-    column[k] = -1;
-    for (std::size_t c = 0; c < vertex.properties.size(); ++c)
-      if (vertex.properties[c].name == names[k]) column[k] = int(c);
-  }
+  for (int k = 0; k < 9; ++k) column[k] = vertex.find(names[k]);
   if (column[0] < 0 || column[1] < 0 || column[2] < 0) throw InputError(where + "vertices lack x, y, z");
   for (const auto& property : vertex.properties)
-    if (property.isList || plyTypeSize(property.type) == 0)
-      throw InputError(where + "unsupported vertex property '" + property.name + "'");
+    if (property.isList) throw InputError(where + "unsupported vertex property '" + property.name + "' (a list)");
 
-  const std::size_t n = vertex.count;
-  std::vector<double> values(vertex.properties.size());
   ParticleFrame frame;
-  frame.position.reserve(n);
+  frame.position.reserve(vertex.count);
   const bool hasVelocity = column[3] >= 0 && column[4] >= 0 && column[5] >= 0;
-  auto take = [&]() {
+  reader.read(std::size_t(vertexIt - elements.begin()), [&](const std::vector<double>& values, const auto&) {
     frame.position.emplace_back(Real(values[column[0]]), Real(values[column[1]]), Real(values[column[2]]));
     if (hasVelocity) frame.velocity.emplace_back(Real(values[column[3]]), Real(values[column[4]]), Real(values[column[5]]));
     if (column[6] >= 0) frame.id.push_back(ParticleId(values[column[6]]));
     if (column[7] >= 0) frame.density.push_back(Real(values[column[7]]));
     if (column[8] >= 0) frame.pressure.push_back(Real(values[column[8]]));
-  };
-  if (format == "ascii") {
-    std::istringstream body(data.substr(bodyStart));
-    for (std::size_t i = 0; i < n; ++i) {
-      for (auto& value : values)
-        if (!(body >> value)) throw InputError(where + "truncated: " + std::to_string(i) + " of " + std::to_string(n) + " vertices");
-      take();
-    }
-  } else {
-    std::size_t stride = 0;
-    std::vector<std::size_t> offsets;
-    for (const auto& property : vertex.properties) {
-      offsets.push_back(stride);
-      stride += plyTypeSize(property.type);
-    }
-    if (data.size() < bodyStart + n * stride)
-      throw InputError(where + "truncated: holds " + std::to_string((data.size() - bodyStart) / stride) +
-                       " of " + std::to_string(n) + " vertices");
-    for (std::size_t i = 0; i < n; ++i) {
-      const char* record = data.data() + bodyStart + i * stride;
-      for (std::size_t c = 0; c < values.size(); ++c)
-        values[c] = decodePly(vertex.properties[c].type, record + offsets[c]);
-      take();
-    }
-  }
+  });
   return frame;
 }
 

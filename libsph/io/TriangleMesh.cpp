@@ -38,9 +38,13 @@ void TriangleMesh::append(const TriangleMesh& other) {
   const auto vertexOffset = static_cast<std::uint32_t>(vertices.size());
   const std::size_t triangleOffset = triangles.size();
   const bool keepNormals = (normals.size() == vertices.size()) && (other.normals.size() == other.vertices.size());
+  const bool keepVelocities =
+      velocities.size() == vertices.size() && other.velocities.size() == other.vertices.size();
   vertices.insert(vertices.end(), other.vertices.begin(), other.vertices.end());
   if (keepNormals) normals.insert(normals.end(), other.normals.begin(), other.normals.end());
   else normals.clear();
+  if (keepVelocities) velocities.insert(velocities.end(), other.velocities.begin(), other.velocities.end());
+  else velocities.clear();
   for (const auto& t : other.triangles)
     triangles.push_back({t[0] + vertexOffset, t[1] + vertexOffset, t[2] + vertexOffset});
   for (const auto& g : other.groups)
@@ -171,10 +175,10 @@ char* putFloat(char* out, float value) {
 }
 
 /// "tag x y z\n" with the axis mapping applied.
-char* putVector(char* out, const char* tag, std::size_t tagLength, const Eigen::Vector3f& v, ObjAxes axes) {
+char* putVector(char* out, const char* tag, std::size_t tagLength, const Eigen::Vector3f& v, MeshAxes axes) {
   std::memcpy(out, tag, tagLength);
   out += tagLength;
-  const float c[3] = {v.x(), axes == ObjAxes::ZUpToYUp ? v.z() : v.y(), axes == ObjAxes::ZUpToYUp ? -v.y() : v.z()};
+  const float c[3] = {v.x(), axes == MeshAxes::ZUpToYUp ? v.z() : v.y(), axes == MeshAxes::ZUpToYUp ? -v.y() : v.z()};
   for (float value : c) {
     *out++ = ' ';
     out = putFloat(out, value);
@@ -200,10 +204,22 @@ constexpr std::size_t kObjWritebackChunk = std::size_t(32) << 20;  // bytes writ
 
 } // namespace
 
+std::string prefixedLines(const std::string& text, const std::string& prefix) {
+  std::string lines;
+  for (std::size_t begin = 0; begin < text.size();) {
+    const std::size_t end = std::min(text.find('\n', begin), text.size());
+    lines += prefix;
+    lines.append(text, begin, end - begin);
+    lines += "\n";
+    begin = end + 1;
+  }
+  return lines;
+}
+
 void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh) { writeObj(path, mesh, std::string()); }
 
 void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const std::string& comment,
-              ObjAxes axes) {
+              MeshAxes axes) {
   const bool withNormals = mesh.normals.size() == mesh.vertices.size() && !mesh.normals.empty();
   // Group lines: "g NAME" before triangle groups[g].begin, for groups in order
   // (a group starting before the previous one, or past the end, ends the list).
@@ -217,13 +233,7 @@ void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const
 
   std::string header = "# Cascade triangle mesh: " + std::to_string(mesh.vertices.size()) + " vertices, " +
                        std::to_string(mesh.triangles.size()) + " triangles\n";
-  for (std::size_t begin = 0; begin < comment.size();) {
-    const std::size_t end = std::min(comment.find('\n', begin), comment.size());
-    header += "# ";
-    header.append(comment, begin, end - begin);
-    header += "\n";
-    begin = end + 1;
-  }
+  header += prefixedLines(comment, "# ");
 
   // The blocks of the file, in order.
   std::vector<ObjBlock> blocks;

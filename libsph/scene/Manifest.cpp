@@ -30,8 +30,26 @@ std::string hexHash(std::uint64_t hash) {
   return buffer;
 }
 
+namespace {
+/// fnv1a of `text`, continuing from the hash written as hex in `previous`.
+std::string chainHash(const std::string& text, const std::string& previous) {
+  return hexHash(fnv1a(text.data(), text.size(), std::stoull(previous, nullptr, 16)));
+}
+} // namespace
+
+std::string surfaceInputHash(const Scene& scene, const std::string& bakeHash) {
+  return chainHash("surface" + surfaceSettingsToJson(scene.surface).dump(), bakeHash);
+}
+
+std::string renderInputHash(const Scene& scene, const std::string& surfaceHash) {
+  const json view = sceneToJson(scene);
+  return chainHash("render" + view["camera"].dump() + view["lights"].dump(), surfaceHash);
+}
+
 std::string sceneInputHash(const Scene& scene) {
-  const std::string text = sceneToJson(scene).dump();
+  json resolved = sceneToJson(scene);
+  for (const char* laterStages : {"surface", "camera", "lights"}) resolved.erase(laterStages);
+  const std::string text = resolved.dump();
   std::uint64_t hash = fnv1a(text.data(), text.size());
   // The obstacles' mesh files (every frame of a deforming sequence) enter by their bytes.
   std::vector<char> buffer(1 << 16);

@@ -191,6 +191,17 @@ struct Camera {
   double fov = 45;                      ///< vertical, degrees
 };
 
+/// What `cascade surface OUT` does by default (it reads them from OUT/scene.json;
+/// its command-line options override them). Names as the CLI's.
+struct SurfaceSettings {
+  std::string method = "anisotropic";  ///< "union" | "smooth" | "anisotropic"
+  std::string meshFormat = "obj";      ///< "obj" | "ply"
+  std::string outputs = "both";        ///< "both" | "vdb" | "mesh"
+  bool velocity = true;                ///< the "v" grid and per-vertex mesh velocities
+  double adaptivity = 0;               ///< mesh adaptivity in [0, 1]
+  std::string meshUp = "y";            ///< axes of the mesh file: "y" (for importers) | "z" (scene)
+};
+
 struct Light {
   std::string type = "directional";     ///< "directional" | "point"
   Vec3 direction{-0.3, 0.4, -1};        ///< directional: the way the light travels
@@ -217,6 +228,7 @@ struct Scene {
   Solver solver;
   Boundaries boundaries;
   Output output;
+  SurfaceSettings surface;
   Camera camera;
   std::vector<Light> lights;
   std::vector<Probe> probes;

@@ -520,11 +520,33 @@ int Output::frameCount() const {
   return std::max(1, int(std::floor(endTime * fps + 1e-9)));
 }
 
+static SurfaceSettings readSurfaceSettings(const Context& context, const json& value) {
+  ObjectReader surface(context, value, "surface");
+  SurfaceSettings settings;
+  settings.method = surface.choice("method", settings.method, {"union", "smooth", "anisotropic"});
+  settings.meshFormat = surface.choice("mesh_format", settings.meshFormat, {"obj", "ply"});
+  settings.outputs = surface.choice("outputs", settings.outputs, {"both", "vdb", "mesh"});
+  settings.velocity = surface.boolean("velocity", settings.velocity);
+  settings.adaptivity = surface.numberIn("adaptivity", settings.adaptivity, 0, 1);
+  settings.meshUp = surface.choice("mesh_up", settings.meshUp, {"y", "z"});
+  surface.finish();
+  return settings;
+}
+
+SurfaceSettings parseSurfaceSettings(const json& value, const std::string& fileLabel) {
+  return readSurfaceSettings(Context{fileLabel, fs::path()}, value);
+}
+
+json surfaceSettingsToJson(const SurfaceSettings& settings) {
+  return {{"method", settings.method},         {"mesh_format", settings.meshFormat}, {"outputs", settings.outputs},
+          {"velocity", settings.velocity},     {"adaptivity", settings.adaptivity},  {"mesh_up", settings.meshUp}};
+}
+
 Scene parseScene(const json& value, const std::string& fileLabel, const fs::path& baseDir) {
   const Context context{fileLabel, baseDir};
   ObjectReader top(context, value, "");
-  top.expectOnly({"name", "description", "size", "gravity", "fluid", "solver", "boundaries", "output", "camera",
-                  "lights", "probes"});
+  top.expectOnly({"name", "description", "size", "gravity", "fluid", "solver", "boundaries", "output", "surface",
+                  "camera", "lights", "probes"});
   Scene scene;
   scene.name = top.string("name", scene.name);
   if (scene.name.empty() || scene.name.find('/') != std::string::npos)
@@ -633,6 +655,8 @@ Scene parseScene(const json& value, const std::string& fileLabel, const fs::path
                          " (the bake runs to frame " + std::to_string(frames) + ")");
     }
   }
+
+  if (const json* surfaceJson = top.find("surface")) scene.surface = readSurfaceSettings(context, *surfaceJson);
 
   if (const json* cameraJson = top.find("camera")) {
     ObjectReader camera(context, *cameraJson, "camera");
@@ -790,6 +814,7 @@ json sceneToJson(const Scene& scene) {
   result["output"] = {{"fps", scene.output.fps},
                       {"end_time", scene.output.endTime},
                       {"probe_rate", scene.output.probeRate}};
+  result["surface"] = surfaceSettingsToJson(scene.surface);
   result["camera"] = {{"position", vec(scene.camera.position)},
                       {"target", vec(scene.camera.target)},
                       {"up", vec(scene.camera.up)},

@@ -47,6 +47,11 @@ Scene parseScene(const nlohmann::json& json, const std::string& fileLabel,
 /// The scene as JSON with every value present (the form of OUT/scene.json).
 nlohmann::json sceneToJson(const Scene& scene);
 
+/// The "surface" block (surfacing defaults; `cascade surface` reads it from
+/// OUT/scene.json). Throws InputError naming `fileLabel` and the key.
+SurfaceSettings parseSurfaceSettings(const nlohmann::json& json, const std::string& fileLabel);
+nlohmann::json surfaceSettingsToJson(const SurfaceSettings& settings);
+
 /// Replaces the value at a dotted path ("fluid.blocks.0.min" or
 /// "fluid.blocks[0].min") of `json` by `value` (parsed as JSON, else a string).
 /// With mustExist, a path not present in `json` is an InputError naming

@@ -259,6 +259,31 @@ void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,
   profile.lap("blocks: add leaves");
 }
 
+/// Calls f(i, w) for every voxel of the leaf at `origin` (i its VDB offset) inside
+/// the sphere of radius R around the kernel centre `p` (leaf-local, m), with
+/// w = k(s) = (1 - s^2)^3, s = distance / R (Zhu & Bridson 2005); [lo, hi] is the
+/// kernel's voxel box clipped to the leaf, `inverseR2` = 1 / R^2, `step` the voxel size.
+template <class F>
+void forEachVoxelInSphere(const openvdb::Coord& origin, const openvdb::Coord& lo, const openvdb::Coord& hi,
+                          const Eigen::Vector3f& p, float inverseR2, float step, F&& f) {
+  for (int x = lo.x(); x <= hi.x(); ++x) {
+    const float dx = float(x - origin.x()) * step - p.x();
+    for (int y = lo.y(); y <= hi.y(); ++y) {
+      const float dy = float(y - origin.y()) * step - p.y();
+      const float r2xy = (dx * dx + dy * dy) * inverseR2;
+      if (r2xy >= 1) continue;
+      const int row = ((x - origin.x()) << 6) | ((y - origin.y()) << 3);
+      for (int z = lo.z(); z <= hi.z(); ++z) {
+        const float dz = float(z - origin.z()) * step - p.z();
+        const float r2 = r2xy + dz * dz * inverseR2;
+        if (r2 >= 1) continue;
+        const float t = 1 - r2;
+        f(row | (z - origin.z()), t * t * t);
+      }
+    }
+  }
+}
+
 /// The same from the kernels' support half sizes `half`.
 template <class Accumulate>
 void rasterizeBlocks(openvdb::FloatTree& tree, const std::vector<Vec3r>& center,

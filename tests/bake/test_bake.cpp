@@ -7,6 +7,7 @@
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/OutputLayout.h"
 #include "libsph/io/ParticleCache.h"
+#include "libsph/io/TriangleMesh.h"
 #include "libsph/scene/Manifest.h"
 
 #include <gtest/gtest.h>
@@ -153,6 +154,35 @@ TEST_F(Bake, RunSkipsAnUnchangedBake) {
   fs::remove_all(out);
 }
 
+TEST_F(Bake, RunResurfacesWithoutRebakingWhenOnlySurfaceSettingsChange) {
+  const fs::path out = freshDir("run_surface");
+  const OutputLayout layout(out);
+  std::vector<std::string> args = bakeArgs(out);
+  args[0] = "run";
+  args.insert(args.end(), {"--no-render", "--set", "output.end_time=0.05"});  // 3 frames
+  const fs::path log = out.string() + ".log";
+  ASSERT_EQ(run(args, log), 0) << readLog(log);
+  EXPECT_TRUE(fs::exists(layout.mesh(3, "obj")));
+  const auto baked = fs::last_write_time(layout.particles(3));
+  // Only the surface settings change: the bake is kept, the meshes are made again
+  // as binary PLY (the OBJs go), and `cascade surface` alone reads the same settings.
+  args.insert(args.end(), {"--set", "surface.mesh_format=ply"});
+  ASSERT_EQ(run(args, log), 0) << readLog(log);
+  EXPECT_NE(readLog(log).find("bake: scene unchanged"), std::string::npos) << readLog(log);
+  EXPECT_EQ(fs::last_write_time(layout.particles(3)), baked);
+  EXPECT_TRUE(fs::exists(layout.mesh(3, "ply")));
+  EXPECT_FALSE(fs::exists(layout.mesh(3, "obj")));
+  EXPECT_FALSE(readPly(layout.mesh(3, "ply")).velocities.empty());
+  ASSERT_EQ(run(args, log), 0) << readLog(log);
+  EXPECT_NE(readLog(log).find("surface: inputs unchanged, skipped"), std::string::npos) << readLog(log);
+  // Only the VDB: no mesh is written.
+  fs::remove_all(layout.meshDir());
+  ASSERT_EQ(run({"surface", out.string(), "--no-mesh", "--force"}, log), 0) << readLog(log);
+  EXPECT_FALSE(fs::exists(layout.meshDir() / "fluid.0003.ply"));
+  EXPECT_TRUE(fs::exists(layout.surface(3)));
+  fs::remove_all(out);
+}
+
 TEST_F(Bake, BadSceneExits2AndKeepsEarlierOutput) {
   const fs::path out = freshDir("bad");
   std::vector<std::string> args = bakeArgs(out);
@@ -189,6 +219,40 @@ TEST_F(Bake, ABakeTooLargeForTheMachineIsRefusedBeforeAllocating) {
   EXPECT_EQ(std::count(message.begin(), message.end(), '\n'), 1) << message;  // one line
   EXPECT_EQ(readTextFile(OutputLayout(out).scene()), sceneBefore);
   EXPECT_TRUE(fs::exists(OutputLayout(out).particles(12)));
+  fs::remove_all(out);
+}
+
+TEST_F(Bake, SurfaceWritesAPlyWithVelocitiesThatInspectAndRenderRead) {
+  const fs::path out = freshDir("ply");
+  fs::copy(*reference, out, fs::copy_options::recursive);
+  const OutputLayout layout(out);
+  const fs::path log = out.string() + ".log";
+  ASSERT_EQ(run({"surface", out.string(), "--frames", "12-12", "--mesh-format", "ply"}, log), 0) << readLog(log);
+  EXPECT_TRUE(fs::exists(layout.mesh(12, "ply")));
+  EXPECT_FALSE(fs::exists(layout.mesh(12, "obj")));
+  // Vertex velocities are kernel-weighted means of particle velocities, so none is
+  // faster than the fastest particle, and the splash moves: they are not all zero.
+  const ParticleFrame particles = readParticleFrame(layout.particles(12));
+  double fastest = 0;
+  for (const Vec3r& v : particles.velocity) fastest = std::max(fastest, double(v.norm()));
+  const TriangleMesh mesh = readPly(layout.mesh(12, "ply"));
+  ASSERT_FALSE(mesh.vertices.empty());
+  ASSERT_EQ(mesh.velocities.size(), mesh.vertices.size());
+  double top = 0;
+  for (const Eigen::Vector3f& v : mesh.velocities) top = std::max(top, double(v.norm()));
+  EXPECT_LE(top, fastest * (1 + 1e-5));
+  EXPECT_GT(top, 0.2 * fastest);
+  ASSERT_EQ(run({"inspect", layout.mesh(12, "ply").string()}, log), 0) << readLog(log);
+  EXPECT_NE(readLog(log).find("kind: PLY mesh"), std::string::npos) << readLog(log);
+  EXPECT_NE(readLog(log).find("velocities: yes"), std::string::npos) << readLog(log);
+  ASSERT_EQ(run({"inspect", layout.surface(12).string()}, log), 0) << readLog(log);
+  EXPECT_NE(readLog(log).find("grid \"v\": type vec3s"), std::string::npos) << readLog(log);
+  ASSERT_EQ(run({"render", out.string(), "--frames", "12-12"}, log), 0) << readLog(log);
+  EXPECT_TRUE(fs::exists(layout.render(12)));
+  // A mesh format Cascade does not write: one line, exit 2, nothing touched.
+  ASSERT_EQ(run({"surface", out.string(), "--frames", "12-12", "--mesh-format", "fbx", "--force"}, log), 2);
+  EXPECT_EQ(readLog(log), "--mesh-format: unknown mesh format 'fbx' (obj, ply)\n");
+  EXPECT_TRUE(fs::exists(layout.mesh(12, "ply")));
   fs::remove_all(out);
 }
 

@@ -170,6 +170,34 @@ TEST(SceneJson, OutOfRangeAndChoices) {
             "scene.json: probes[0].obstacle: no obstacle named \"towr\"");
 }
 
+TEST(SceneJson, SurfaceSettingsAreReadCheckedAndWritten) {
+  const scene::Scene scene = scene::parseScene(
+      nlohmann::json::parse(R"({"name": "t", "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]},
+                                "surface": {"mesh_format": "ply", "outputs": "mesh", "velocity": false,
+                                            "adaptivity": 0.25}})"),
+      "scene.json", ".");
+  EXPECT_EQ(scene.surface.meshFormat, "ply");
+  EXPECT_EQ(scene.surface.outputs, "mesh");
+  EXPECT_FALSE(scene.surface.velocity);
+  EXPECT_EQ(scene.surface.adaptivity, 0.25);
+  EXPECT_EQ(scene.surface.method, "anisotropic");  // the default, written out
+  const nlohmann::json written = scene::sceneToJson(scene);
+  EXPECT_EQ(written["surface"]["method"], "anisotropic");
+  const scene::SurfaceSettings back = scene::parseSurfaceSettings(written["surface"], "OUT/scene.json");
+  EXPECT_EQ(back.meshFormat, "ply");
+  EXPECT_EQ(back.outputs, "mesh");
+  EXPECT_EQ(back.adaptivity, 0.25);
+  EXPECT_EQ(loadError(R"({"name": "t", "surface": {"mesh_format": "plyy"},
+                          "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})"),
+            "scene.json: surface.mesh_format: must be one of obj, ply (got \"plyy\") (did you mean 'ply'?)");
+  EXPECT_EQ(loadError(R"({"name": "t", "surface": {"adaptivity": 2},
+                          "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})"),
+            "scene.json: surface.adaptivity: must be in [0, 1] (got 2)");
+  EXPECT_EQ(loadError(R"({"name": "t", "surface": {"output": "vdb"},
+                          "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]}})"),
+            "scene.json: surface.output: unknown key (did you mean 'outputs'?)");
+}
+
 TEST(SceneJson, SetErrors) {
   EXPECT_EQ(loadError(kMinimal, {"fluid.spacingg=0.1"}),
             "--set fluid.spacingg: unknown key 'fluid.spacingg' (did you mean 'fluid.spacing'?)");

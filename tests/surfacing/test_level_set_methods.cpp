@@ -22,12 +22,7 @@ openvdb::FloatGrid::Ptr levelSet(SurfaceMethod method, const std::vector<Vec3r>&
   LevelSetSettings settings;
   settings.spacing = kSpacing;
   settings.voxelSize = 0.5 * kSpacing;
-  openvdb::FloatGrid::Ptr grid;
-  switch (method) {
-    case SurfaceMethod::UnionOfSpheres: grid = unionOfSpheresLevelSet(points, settings); break;
-    case SurfaceMethod::SmoothSpheres: grid = smoothSpheresLevelSet(points, settings); break;
-    case SurfaceMethod::AnisotropicKernels: grid = anisotropicLevelSet(points, settings); break;
-  }
+  openvdb::FloatGrid::Ptr grid = particlesToLevelSet(method, points, settings).surface;
   if (passes >= 0) filterLevelSet(*grid, filter, passes);
   return grid;
 }

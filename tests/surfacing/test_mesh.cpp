@@ -139,7 +139,7 @@ TEST(SurfaceMesh, ObjRoundTripYUp) {
   const fs::path dir = scratchDir("obj");
   for (bool yUp : {false, true}) {
     const fs::path path = dir / (yUp ? "yup.obj" : "zup.obj");
-    writeSurfaceObj(path, result.mesh, yUp);
+    writeSurfaceMesh(path, result.mesh, yUp);
     const TriangleMesh back = readObj(path);
     {  // the axes are named in the header, for Cascade's render and for people
       std::ifstream in(path);

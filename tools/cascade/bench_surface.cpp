@@ -1,12 +1,17 @@
 // `cascade bench surface`: ~0.9 M particles of a splash (a pool, a collapsing
 // column with a crown sheet, 150 k airborne droplets; spacing 0.006 m) surfaced
-// by each method, timed by stage, and, in the same run, OpenVDB's vdb_tool
-// (Debian libopenvdb-tools) on the same points for the ratio (issue 5).
+// by each method, timed by stage, with what the "v" grid, binary PLY and adaptive
+// meshing cost and give (file sizes, triangles, Hausdorff distance to the uniform
+// mesh in voxels), and, in the same run, OpenVDB's vdb_tool (Debian
+// libopenvdb-tools) on the same points for the ratio.
 #include "Benchmarks.h"
 
 #include "libsph/io/ParticleCache.h"
 #include "libsph/io/TriangleMesh.h"
+#include "surfacing/MeshChecks.h"
 #include "surfacing/SurfaceStage.h"
+
+#include <algorithm>
 
 #include <chrono>
 #include <ctime>
@@ -28,14 +33,24 @@ namespace fs = std::filesystem;
 constexpr double kSpacing = 0.006;
 constexpr double kVoxel = 0.003;
 
-/// The splash: deterministic, about 0.9 M particles.
-std::vector<Vec3r> splashParticles() {
-  std::vector<Vec3r> points;
+/// The splash: deterministic, about 0.9 M particles, with velocities (m/s) of its
+/// parts' motion: the column falling and spreading, the crown rising outward,
+/// droplets flying out, the pool's ring wave running out.
+struct Splash {
+  std::vector<Vec3r> points, velocities;
+};
+
+Splash splashParticles() {
+  Splash splash;
+  std::vector<Vec3r>& points = splash.points;
+  std::vector<Vec3r>& velocities = splash.velocities;
   std::mt19937 random(20261121);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   auto jitter = [&] { return (unit(random) - 0.5) * 0.1 * kSpacing; };
+  Vec3d motion = Vec3d::Zero();  // the velocity of the part being added
   auto add = [&](double x, double y, double z) {
     points.emplace_back(Real(x + jitter()), Real(y + jitter()), Real(z + jitter()));
+    velocities.push_back(motion.cast<Real>());
   };
   const double s = kSpacing;
   // Pool: 1.2 x 0.75 m, 15.4 cm deep, with a ring wave.
@@ -44,7 +59,10 @@ std::vector<Vec3r> splashParticles() {
   for (double x = 0.5 * s; x < poolX; x += s)
     for (double y = 0.5 * s; y < poolY; y += s) {
       const double r = std::hypot(x - columnCenter.x(), y - columnCenter.y());
-      const double depth = poolDepth + 0.02 * std::exp(-std::pow((r - 0.3) / 0.06, 2));  // ring wave
+      const double wave = std::exp(-std::pow((r - 0.3) / 0.06, 2));
+      const double depth = poolDepth + 0.02 * wave;  // ring wave
+      const Vec3d outward = r > 0 ? Vec3d(Vec3d(x - columnCenter.x(), y - columnCenter.y(), 0) / r) : Vec3d::Zero();
+      motion = 0.6 * wave * outward;
       for (double z = 0.5 * s; z < depth; z += s) add(x, y, z);
     }
   // Collapsing column: a cylinder whose foot spreads out, on top of the pool.
@@ -52,7 +70,10 @@ std::vector<Vec3r> splashParticles() {
     const double radius = 0.09 + 0.12 * std::exp(-(z - poolDepth) / 0.05);
     for (double x = -radius; x <= radius; x += s)
       for (double y = -radius; y <= radius; y += s)
-        if (x * x + y * y <= radius * radius) add(columnCenter.x() + x, columnCenter.y() + y, z);
+        if (x * x + y * y <= radius * radius) {
+          motion = Vec3d(2.0 * x, 2.0 * y, -1.5);  // falling, its foot spreading
+          add(columnCenter.x() + x, columnCenter.y() + y, z);
+        }
   }
   // Crown: a thin sheet (one particle thick) rising from the ring wave.
   for (double z = poolDepth + 0.026; z < poolDepth + 0.156; z += s) {
@@ -60,6 +81,7 @@ std::vector<Vec3r> splashParticles() {
     const int n = int(2 * M_PI * radius / s);
     for (int i = 0; i < n; ++i) {
       const double a = 2 * M_PI * (i + 0.5 * (int(z / s) % 2)) / n;
+      motion = Vec3d(1.5 * std::cos(a), 1.5 * std::sin(a), 1.0);
       add(columnCenter.x() + radius * std::cos(a), columnCenter.y() + radius * std::sin(a), z);
     }
   }
@@ -70,62 +92,109 @@ std::vector<Vec3r> splashParticles() {
     const double height = poolDepth + 0.036 + 0.45 * unit(random) * (1 - 0.6 * r);
     const double x = columnCenter.x() + r * std::cos(a), y = columnCenter.y() + r * std::sin(a);
     const int size = unit(random) < 0.7 ? 1 : 2 + int(6 * unit(random));
+    motion = Vec3d(2.0 * std::cos(a), 2.0 * std::sin(a), 1.0 - 4.0 * (height - poolDepth));  // no draw: same points
     for (int k = 0; k < size && droplets < 150000; ++k, ++droplets)
       add(x + (k % 2) * s, y + ((k / 2) % 2) * s, height + (k / 4) * s);
   }
-  return points;
+  return splash;
 }
 
 double milliseconds(double seconds) { return std::round(seconds * 1e4) / 10; }
 
+/// One configuration of the bench: a method and the output choices.
+struct Config {
+  std::string name;  ///< for CASCADE_BENCH_SURFACE
+  SurfaceMethod method = SurfaceMethod::AnisotropicKernels;
+  MeshFormat format = MeshFormat::Obj;
+  bool velocity = true;
+  double adaptivity = 0;
+};
+
 } // namespace
 
 BenchTable benchSurface() {
-  BenchTable table("surface", {"method", "n_particles", "voxel_size", "rasterize_ms", "filter_ms", "mesh_ms",
-                               "cleanup_ms", "write_ms", "total_ms", "cpu_ms", "triangles", "vs_vdb_tool"});
-  const std::vector<Vec3r> points = splashParticles();
+  BenchTable table("surface", {"method", "n_particles", "voxel_size", "mesh_format", "velocity", "adaptivity",
+                               "rasterize_ms", "filter_ms", "mesh_ms", "cleanup_ms", "write_ms", "total_ms", "cpu_ms",
+                               "triangles", "mesh_mb", "vdb_mb", "hausdorff_voxels", "vs_vdb_tool"});
+  const Splash splash = splashParticles();
+  const std::vector<Vec3r>& points = splash.points;
   const fs::path dir = fs::temp_directory_path() / ("cascade_bench_surface_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   std::cerr << "bench surface: " << points.size() << " particles, voxel " << kVoxel << " m, in " << dir << '\n';
 
+  // The default (anisotropic, OBJ, "v"), then what each choice costs: no "v", binary
+  // PLY, adaptive meshing (its Hausdorff distance to the default's uniform mesh), and
+  // the other methods.
+  double adaptivity = 0.2;
+  // CASCADE_BENCH_SURFACE_ADAPTIVITY=A sets the adaptive row's adaptivity (for comparisons).
+  if (const char* value = std::getenv("CASCADE_BENCH_SURFACE_ADAPTIVITY")) adaptivity = std::atof(value);
+  const std::vector<Config> configs = {
+      {"anisotropic", SurfaceMethod::AnisotropicKernels, MeshFormat::Obj, true, 0},
+      {"no-v", SurfaceMethod::AnisotropicKernels, MeshFormat::Obj, false, 0},
+      {"ply", SurfaceMethod::AnisotropicKernels, MeshFormat::Ply, true, 0},
+      {"ply-no-v", SurfaceMethod::AnisotropicKernels, MeshFormat::Ply, false, 0},
+      {"adaptive", SurfaceMethod::AnisotropicKernels, MeshFormat::Ply, true, adaptivity},
+      {"smooth", SurfaceMethod::SmoothSpheres, MeshFormat::Obj, true, 0},
+      {"union", SurfaceMethod::UnionOfSpheres, MeshFormat::Obj, true, 0},
+  };
   struct Row {
-    std::string method;
+    Config config;
     SurfaceTimings timings;
     double cpu;  // process CPU seconds, all threads: load-independent
     std::size_t triangles;
+    double meshMb, vdbMb, hausdorffVoxels;
   };
   std::vector<Row> rows;
-  // CASCADE_BENCH_SURFACE=anisotropic,smooth,union,vdb_tool (default: all) picks the rows, for profiling.
+  // CASCADE_BENCH_SURFACE=anisotropic,no-v,ply,ply-no-v,adaptive,smooth,union,vdb_tool (default: all)
+  // picks the rows, for profiling.
   const char* only = std::getenv("CASCADE_BENCH_SURFACE");
-  const std::string selected = only ? "," + std::string(only) + "," : ",anisotropic,smooth,union,vdb_tool,";
+  const std::string selected =
+      only ? "," + std::string(only) + "," : ",anisotropic,no-v,ply,ply-no-v,adaptive,smooth,union,vdb_tool,";
   auto wanted = [&](const std::string& name) { return selected.find("," + name + ",") != std::string::npos; };
-  for (SurfaceMethod method :
-       {SurfaceMethod::AnisotropicKernels, SurfaceMethod::SmoothSpheres, SurfaceMethod::UnionOfSpheres}) {
-    if (!wanted(surfaceMethodName(method))) continue;
+  {  // Warm-up (not timed): the first surfacing of a process pays for its page faults.
     SurfaceOptions options;
-    options.method = method;
     options.voxelSize = kVoxel;
-    // CASCADE_BENCH_SURFACE_ADAPTIVITY=A overrides the volumeToMesh adaptivity (for comparisons).
-    if (const char* adaptivity = std::getenv("CASCADE_BENCH_SURFACE_ADAPTIVITY")) options.adaptivity = std::atof(adaptivity);
+    surfaceParticles(points, splash.velocities, kSpacing, options);
+  }
+  TriangleMesh uniform;  // the default's mesh, for the adaptive row's distance
+  for (const Config& config : configs) {
+    if (!wanted(config.name)) continue;
+    SurfaceOptions options;
+    options.method = config.method;
+    options.voxelSize = kVoxel;
+    options.velocity = config.velocity;
+    options.adaptivity = config.adaptivity;
+    const fs::path meshPath = dir / ("fluid." + meshFormatName(config.format));
     const std::clock_t cpuStart = std::clock();
-    SurfaceResult result = surfaceParticles(points, kSpacing, options, dir / "surface.vdb", dir / "fluid.obj");
+    SurfaceResult result = surfaceParticles(points, splash.velocities, kSpacing, options, dir / "surface.vdb", meshPath);
     const double cpu = double(std::clock() - cpuStart) / CLOCKS_PER_SEC;
-    rows.push_back({surfaceMethodName(method), result.timings, cpu, result.mesh.triangles.size()});
-    // CASCADE_BENCH_SURFACE_KEEP=DIR keeps the outputs as DIR/METHOD.vdb and .obj (to compare versions).
+    double hausdorff = -1;
+    if (config.adaptivity > 0 && !uniform.empty())
+      hausdorff = std::round(surfacing::hausdorffDistance(result.mesh, uniform) / kVoxel * 1000) / 1000;
+    if (config.method == SurfaceMethod::AnisotropicKernels && config.adaptivity == 0 && uniform.empty())
+      uniform = result.mesh;
+    rows.push_back({config, result.timings, cpu, result.mesh.triangles.size(), fs::file_size(meshPath) / 1e6,
+                    fs::file_size(dir / "surface.vdb") / 1e6, hausdorff});
+    const std::string label = surfaceMethodName(config.method) + " " + meshFormatName(config.format) + (config.velocity ? " v" : " no-v") +
+                              " adaptivity " + std::to_string(config.adaptivity).substr(0, 4);
+    // CASCADE_BENCH_SURFACE_KEEP=DIR keeps the outputs (to compare versions).
     if (const char* keep = std::getenv("CASCADE_BENCH_SURFACE_KEEP")) {
       fs::create_directories(keep);
-      for (const char* name : {"surface.vdb", "fluid.obj"})
-        fs::copy_file(dir / name, fs::path(keep) / (rows.back().method + fs::path(name).extension().string()),
-                      fs::copy_options::overwrite_existing);
+      std::string stem = label;
+      std::replace(stem.begin(), stem.end(), ' ', '_');
+      fs::copy_file(dir / "surface.vdb", fs::path(keep) / (stem + ".vdb"), fs::copy_options::overwrite_existing);
+      fs::copy_file(meshPath, fs::path(keep) / (stem + meshPath.extension().string()),
+                    fs::copy_options::overwrite_existing);
     }
-    std::cerr << "bench surface: " << rows.back().method << " files: VDB " << fs::file_size(dir / "surface.vdb") / 1e6
-              << " MB (" << result.activeVoxels << " active voxels), OBJ " << fs::file_size(dir / "fluid.obj") / 1e6
-              << " MB\n";
-    std::cerr << "bench surface: " << rows.back().method << " " << milliseconds(result.timings.total())
+    std::cerr << "bench surface: " << label << ": VDB " << rows.back().vdbMb << " MB (" << result.activeVoxels
+              << " active voxels), mesh " << rows.back().meshMb << " MB, " << result.mesh.triangles.size()
+              << " triangles" << (hausdorff >= 0 ? ", Hausdorff " + std::to_string(hausdorff) + " voxels" : "") << "\n";
+    std::cerr << "bench surface: " << label << " " << milliseconds(result.timings.total())
               << " ms (VDB writer " << milliseconds(result.timings.vdbWrite) << " ms, overlapped); CPU ms by stage: "
               << milliseconds(result.timings.cpu.rasterize) << " " << milliseconds(result.timings.cpu.filter) << " "
               << milliseconds(result.timings.cpu.mesh) << " " << milliseconds(result.timings.cpu.cleanup) << " "
               << milliseconds(result.timings.cpu.write) << "\n";
+    fs::remove(meshPath);
   }
 
   // vdb_tool on the same points, as a PLY file (its own reading and writing included).
@@ -156,14 +225,17 @@ BenchTable benchSurface() {
   }
   for (const Row& row : rows) {
     const double total = milliseconds(row.timings.total());
-    table.addRow({row.method, (long long)points.size(), kVoxel, milliseconds(row.timings.rasterize),
-                  milliseconds(row.timings.filter), milliseconds(row.timings.mesh),
-                  milliseconds(row.timings.cleanup), milliseconds(row.timings.write), total,
-                  milliseconds(row.cpu), (long long)row.triangles, vdbToolMs > 0 ? std::round(vdbToolMs / total * 100) / 100 : 0.0});
+    table.addRow({surfaceMethodName(row.config.method), (long long)points.size(), kVoxel, meshFormatName(row.config.format),
+                  (long long)row.config.velocity, row.config.adaptivity, milliseconds(row.timings.rasterize),
+                  milliseconds(row.timings.filter), milliseconds(row.timings.mesh), milliseconds(row.timings.cleanup),
+                  milliseconds(row.timings.write), total, milliseconds(row.cpu), (long long)row.triangles,
+                  std::round(row.meshMb * 10) / 10, std::round(row.vdbMb * 10) / 10, row.hausdorffVoxels,
+                  vdbToolMs > 0 ? std::round(vdbToolMs / total * 100) / 100 : 0.0});
   }
   if (wanted("vdb_tool"))
-    table.addRow({std::string("vdb_tool"), (long long)points.size(), kVoxel, 0.0, 0.0, 0.0, 0.0, 0.0, vdbToolMs,
-                  std::round(vdbToolCpuMs), (long long)vdbToolTriangles, 1.0});
+    table.addRow({std::string("vdb_tool"), (long long)points.size(), kVoxel, std::string("obj"), 0LL, 0.0, 0.0, 0.0,
+                  0.0, 0.0, 0.0, vdbToolMs, std::round(vdbToolCpuMs), (long long)vdbToolTriangles, -1.0, -1.0, -1.0,
+                  1.0});
   fs::remove_all(dir);
   return table;
 }

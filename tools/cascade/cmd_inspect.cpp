@@ -1,10 +1,11 @@
 // `cascade inspect FILE` (CONTRACT.md): what a particle cache, VDB level set
-// or OBJ mesh holds; for a particle cache also a checksum over positions and
+// or OBJ / PLY mesh holds; for a particle cache also a checksum over positions and
 // velocities in id order (libsph/io/ParticleCache.h).
 #include "Commands.h"
 
 #include "libsph/Errors.h"
 #include "libsph/io/ParticleCache.h"
+#include "libsph/io/Ply.h"
 #include "libsph/io/TriangleMesh.h"
 #include "libsph/io/VdbFile.h"
 
@@ -110,9 +111,19 @@ void inspectVdb(const fs::path& path) {
   inspectVolume(path, grids);
 }
 
-void inspectObj(const fs::path& path) {
-  const TriangleMesh mesh = readObj(path);
-  std::printf("file: %s\nkind: OBJ mesh\n", path.string().c_str());
+/// A PLY with faces is a mesh; one with vertices only, a particle file.
+bool plyHasFaces(const fs::path& path) {
+  const PlyReader reader(path);
+  for (const PlyElement& element : reader.elements())
+    if (element.name == "face" && element.count > 0) return true;
+  return false;
+}
+
+void inspectMesh(const fs::path& path) {
+  const bool ply = path.extension() == ".ply";
+  std::vector<std::string> comments;
+  const TriangleMesh mesh = ply ? readPly(path, &comments) : readObj(path);
+  std::printf("file: %s\nkind: %s mesh\n", path.string().c_str(), ply ? "PLY" : "OBJ");
   std::printf("vertices: %zu\ntriangles: %zu\n", mesh.vertices.size(), mesh.triangles.size());
   if (!mesh.vertices.empty()) {
     Vec3d lo = Vec3d::Constant(1e300), hi = Vec3d::Constant(-1e300);
@@ -123,6 +134,14 @@ void inspectObj(const fs::path& path) {
     printBounds("bounds: ", lo, hi);
   }
   std::printf("normals: %s\n", mesh.normals.empty() ? "no" : "yes");
+  if (mesh.velocities.empty()) {
+    std::printf("velocities: no\n");
+  } else {
+    double top = 0;
+    for (const auto& v : mesh.velocities) top = std::max(top, double(v.norm()));
+    std::printf("velocities: yes (max speed %.6g m/s)\n", top);
+  }
+  for (const std::string& comment : comments) std::printf("comment: %s\n", comment.c_str());
   std::printf("groups: %zu\n", mesh.groups.size());
   for (const TriangleMesh::Group& group : mesh.groups)
     std::printf("  group \"%s\": %zu triangles\n", group.name.c_str(), group.end - group.begin);
@@ -133,15 +152,15 @@ void inspectObj(const fs::path& path) {
 void addInspectCommand(CLI::App& app) {
   CLI::App* command = app.add_subcommand("inspect", "show what a particle cache, VDB or OBJ file holds");
   auto file = std::make_shared<std::string>();
-  command->add_option("file", *file, "particles.NNNN.vdb | .ply | surface.NNNN.vdb | .obj")->required();
+  command->add_option("file", *file, "particles.NNNN.vdb | .ply | surface.NNNN.vdb | fluid.NNNN.obj | .ply")->required();
   command->callback([file] {
     const fs::path path(*file);
     std::error_code error;
     if (!fs::is_regular_file(path, error)) throw InputError(path.string() + ": file not found");
     const std::string extension = path.extension().string();
     if (extension == ".vdb") inspectVdb(path);
-    else if (extension == ".ply") inspectParticles(path);
-    else if (extension == ".obj") inspectObj(path);
+    else if (extension == ".ply") plyHasFaces(path) ? inspectMesh(path) : inspectParticles(path);
+    else if (extension == ".obj") inspectMesh(path);
     else throw InputError(path.string() + ": unknown file type (expected .vdb, .ply or .obj)");
   });
 }

@@ -13,6 +13,7 @@
 #include "SceneCommand.h"
 
 #include "libsph/Errors.h"
+#include "libsph/io/AtomicFile.h"
 #include "libsph/io/OutputLayout.h"
 #include "libsph/scene/Manifest.h"
 #include "libsph/scene/SceneJson.h"
@@ -77,24 +78,34 @@ double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-/// Runs `cascade STAGE OUT` unless the manifest says it is current; records it.
+/// One kind of file a stage writes per frame: DIR/PREFIX.NNNN.EXT.
+struct FrameFiles {
+  fs::path dir;
+  std::string prefix, extension;
+};
+
+/// Runs `cascade STAGE OUT` unless the manifest says it is current and all of
+/// `outputs` exist for every frame; before running, removes `stale` (the outputs
+/// of every form the stage may have written before). Records the run.
 void runStage(const std::string& stage, const fs::path& outDir, const std::string& sceneName,
-              const std::string& inputHash, int frameCount, const fs::path& outputDir,
-              const std::string& prefix, const std::string& extension) {
+              const std::string& inputHash, int frameCount, const std::vector<FrameFiles>& outputs,
+              const std::vector<FrameFiles>& stale) {
   const OutputLayout layout(outDir);
   const nlohmann::json manifest = scene::readManifest(layout.manifest());
-  if (scene::stageIsCurrent(manifest, stage, inputHash) &&
-      allFramesExist(outputDir, prefix, extension, frameCount)) {
+  bool complete = true;
+  for (const FrameFiles& files : outputs)
+    complete = complete && allFramesExist(files.dir, files.prefix, files.extension, frameCount);
+  if (scene::stageIsCurrent(manifest, stage, inputHash) && complete) {
     std::cerr << "run: " << stage << ": inputs unchanged, skipped\n";
     return;
   }
-  removeOutputs(outputDir, prefix, extension);
-  if (stage == "surface") removeOutputs(layout.surfaceDir(), "surface", "vdb");
+  for (const FrameFiles& files : stale) removeOutputs(files.dir, files.prefix, files.extension);
   std::cerr << "run: " << stage << "...\n";
   const auto start = std::chrono::steady_clock::now();
   const int status = runSelf({stage, outDir.string()});
+  const FrameFiles& counted = outputs.front();
   nlohmann::json record{{"done", status == 0}, {"input_hash", inputHash}, {"seconds", secondsSince(start)},
-                        {"frames", listFrames(outputDir, prefix, extension).size()}};
+                        {"frames", listFrames(counted.dir, counted.prefix, counted.extension).size()}};
   if (status != 0) record["exit_status"] = status;
   scene::recordStage(layout.manifest(), sceneName, stage, record);
   if (status == kExitBadInput) throw InputError("run: " + stage + " stage failed on bad input (see above)");
@@ -136,11 +147,24 @@ void addRunCommand(CLI::App& app) {
       runBake(scene, outDir, "", false, args->ignoreMemory);
     }
     if (!args->noSurface) {
-      const std::string surfaceHash = scene::hexHash(scene::fnv1a("surface", 7, std::stoull(bakeHash, nullptr, 16)));
-      runStage("surface", outDir, scene.name, surfaceHash, frameCount, layout.meshDir(), "fluid", "obj");
-      if (!args->noRender) {
-        const std::string renderHash = scene::hexHash(scene::fnv1a("render", 6, std::stoull(bakeHash, nullptr, 16)));
-        runStage("render", outDir, scene.name, renderHash, frameCount, layout.renderDir(), "frame", "png");
+      // The surface and render stages read OUT/scene.json: it carries this scene's
+      // surface settings, camera and lights even when the bake was skipped.
+      writeTextAtomically(layout.scene(), scene::sceneToJson(scene).dump(2) + "\n");
+      const std::string surfaceHash = scene::surfaceInputHash(scene, bakeHash);
+      const scene::SurfaceSettings& surface = scene.surface;
+      std::vector<FrameFiles> surfaceOutputs;
+      if (surface.outputs != "vdb") surfaceOutputs.push_back({layout.meshDir(), "fluid", surface.meshFormat});
+      if (surface.outputs != "mesh") surfaceOutputs.push_back({layout.surfaceDir(), "surface", "vdb"});
+      runStage("surface", outDir, scene.name, surfaceHash, frameCount, surfaceOutputs,
+               {{layout.meshDir(), "fluid", "obj"}, {layout.meshDir(), "fluid", "ply"},
+                {layout.surfaceDir(), "surface", "vdb"}});
+      if (!args->noRender && surface.outputs == "vdb") {
+        std::cerr << "run: render: skipped (surface.outputs is \"vdb\": no mesh to draw; "
+                     "`cascade render OUT --particles` draws the particles)\n";
+      } else if (!args->noRender) {
+        const FrameFiles frames{layout.renderDir(), "frame", "png"};
+        runStage("render", outDir, scene.name, scene::renderInputHash(scene, surfaceHash), frameCount, {frames},
+                 {frames});
       }
     }
     std::fprintf(stderr, "run: %s done in %.1f s -> %s\n", scene.name.c_str(), secondsSince(start),

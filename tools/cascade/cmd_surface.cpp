@@ -1,8 +1,11 @@
-// `cascade surface OUT [--frames A-B] [surfacing options]` (CONTRACT.md, issue 5).
+// `cascade surface OUT [--frames A-B] [surfacing options]` (CONTRACT.md): defaults
+// from OUT/scene.json's "surface" block, overridden by the options given.
 #include "Commands.h"
 
 #include "libsph/Errors.h"
+#include "libsph/io/AtomicFile.h"
 #include "libsph/io/OutputLayout.h"
+#include "libsph/scene/SceneJson.h"
 #include "surfacing/SurfaceStage.h"
 
 #include <chrono>
@@ -21,8 +24,9 @@ struct SurfaceCommandOptions {
   std::string frames;
   std::string method = "anisotropic";
   std::string filter = "mean-curvature";
+  std::string meshFormat = "obj";
   SurfaceOptions surface;
-  bool noVdb = false, noObj = false, objZUp = false;
+  bool noVdb = false, noMesh = false, meshZUp = false, noVelocity = false;
 };
 
 template <class T>
@@ -34,10 +38,37 @@ void requireAtLeast(const char* option, T value, T minimum) {
   }
 }
 
+/// The defaults of OUT/scene.json's "surface" block, for every option not given
+/// on the command line (`command`). No scene file (caches from another tool): none.
+void applySceneDefaults(SurfaceCommandOptions& options, const CLI::App& command) {
+  const OutputLayout layout(options.out);
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(layout.scene(), error)) return;
+  nlohmann::json document;
+  try {
+    document = nlohmann::json::parse(readTextFile(layout.scene()));
+  } catch (const nlohmann::json::exception& failure) {
+    throw InputError(layout.scene().string() + ": not valid JSON (" + failure.what() + ")");
+  }
+  if (!document.is_object() || !document.contains("surface") || document["surface"].is_null()) return;
+  const scene::SurfaceSettings settings = scene::parseSurfaceSettings(document["surface"], layout.scene().string());
+  auto given = [&](const char* option) { return command.count(option) > 0; };
+  if (!given("--method")) options.method = settings.method;
+  if (!given("--mesh-format")) options.meshFormat = settings.meshFormat;
+  if (!given("--no-vdb") && !given("--no-mesh")) {
+    options.noVdb = settings.outputs == "mesh";
+    options.noMesh = settings.outputs == "vdb";
+  }
+  if (!given("--no-velocity")) options.noVelocity = !settings.velocity;
+  if (!given("--adaptivity")) options.surface.adaptivity = settings.adaptivity;
+  if (!given("--mesh-z-up")) options.meshZUp = settings.meshUp == "z";
+}
+
 void runSurface(SurfaceCommandOptions& options) {
   SurfaceOptions& surface = options.surface;
   surface.method = parseSurfaceMethod(options.method);
   surface.filter = parseSurfaceFilter(options.filter);
+  surface.meshFormat = parseMeshFormat(options.meshFormat);
   requireAtLeast("--voxel-size", surface.voxelSize, 0.0);
   requireAtLeast("--spacing", surface.particleSpacing, 0.0);
   requireAtLeast("--radius", surface.particleRadius, 0.0);
@@ -50,8 +81,9 @@ void runSurface(SurfaceCommandOptions& options) {
     throw InputError(message.str());
   }
   surface.writeVdb = !options.noVdb;
-  surface.writeObj = !options.noObj;
-  surface.objYUp = !options.objZUp;
+  surface.writeMesh = !options.noMesh;
+  surface.meshYUp = !options.meshZUp;
+  surface.velocity = !options.noVelocity;
   const FrameRange range = options.frames.empty() ? FrameRange{} : parseFrameRange(options.frames);
   const OutputLayout layout(options.out);
   if (!std::filesystem::is_directory(layout.root))
@@ -103,7 +135,7 @@ void addSurfaceCommand(CLI::App& app) {
   auto options = std::make_shared<SurfaceCommandOptions>();
   SurfaceOptions& s = options->surface;
   CLI::App* command = app.add_subcommand(
-      "surface", "Surface particle caches: OUT/particles -> OUT/surface/*.vdb level sets and OUT/mesh/*.obj");
+      "surface", "Surface particle caches: OUT/particles -> OUT/surface/*.vdb level sets and OUT/mesh/*.obj|ply");
   command->add_option("OUT", options->out, "Output directory of a bake (reads OUT/particles)")->required();
   command->add_option("--frames", options->frames, "Frame range A-B (inclusive, 1-based); default all");
   command->add_option("--method", options->method,
@@ -123,15 +155,23 @@ void addSurfaceCommand(CLI::App& app) {
                       "Drop mesh pieces enclosing less than this, m^3 (default: 1/8 particle volume)");
   command->add_option("--half-width", s.halfWidth, "Narrow-band half width, voxels")->capture_default_str();
   command->add_flag("--density", s.writeDensity, "Also write a \"density\" fog grid (Blender renders fog)");
-  command->add_flag("--no-vdb", options->noVdb, "Do not write OUT/surface/*.vdb");
-  command->add_flag("--no-obj", options->noObj, "Do not write OUT/mesh/*.obj");
-  command->add_flag("--obj-z-up", options->objZUp,
-                    "Write OBJ in the scene's z-up axes (default y-up: (x, y, z) -> (x, z, -y))");
+  command->add_option("--mesh-format", options->meshFormat,
+                      "Mesh file: obj (ASCII, no velocities) | ply (binary, with per-vertex velocities)")
+      ->capture_default_str();
+  command->add_flag("--no-vdb", options->noVdb, "Do not write OUT/surface/*.vdb (mesh only)");
+  command->add_flag("--no-mesh,--no-obj", options->noMesh, "Do not write OUT/mesh/* (VDB only)");
+  command->add_flag("--no-velocity", options->noVelocity,
+                    "Do not write the \"v\" velocity grid and per-vertex mesh velocities");
+  command->add_flag("--mesh-z-up,--obj-z-up", options->meshZUp,
+                    "Write the mesh in the scene's z-up axes (default y-up: (x, y, z) -> (x, z, -y))");
   command->add_flag("--vdb-y-up", s.vdbYUp, "Give the VDB a y-up transform (for Houdini; default z-up)");
   command->add_flag("--vdb-blosc", s.vdbBlosc,
                     "Also Blosc-compress the VDB voxel values (a few % smaller, much slower to write)");
   command->add_flag("--force", s.force, "Redo frames whose outputs exist");
-  command->callback([options] { runSurface(*options); });
+  command->callback([options, command] {
+    applySceneDefaults(*options, *command);
+    runSurface(*options);
+  });
 }
 
 } // namespace cascade::cli

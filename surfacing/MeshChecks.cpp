@@ -1,0 +1,100 @@
+#include "surfacing/MeshChecks.h"
+
+#include "surfacing/detail/CgalMesh.h"
+
+#include <CGAL/AABB_traits.h>
+#include <CGAL/AABB_tree.h>
+#include <CGAL/AABB_triangle_primitive.h>
+#include <CGAL/Polygon_mesh_processing/self_intersections.h>
+#include <CGAL/boost/graph/helpers.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <vector>
+
+namespace cascade::surfacing {
+
+namespace {
+
+using detail::CgalKernel;
+using Point = CgalKernel::Point_3;
+using Triangle = CgalKernel::Triangle_3;
+using TriangleList = std::vector<Triangle>;
+using Primitive = CGAL::AABB_triangle_primitive<CgalKernel, TriangleList::const_iterator>;
+using Tree = CGAL::AABB_tree<CGAL::AABB_traits<CgalKernel, Primitive>>;
+
+Point point(const Eigen::Vector3f& v) { return Point(v.x(), v.y(), v.z()); }
+
+/// h(a, b): the largest distance from a's vertices and centroids to b's triangles.
+double directedDistance(const TriangleMesh& a, const TriangleMesh& b) {
+  if (a.vertices.empty() || b.triangles.empty()) return a.vertices.empty() ? 0.0 : INFINITY;
+  TriangleList triangles;
+  triangles.reserve(b.triangles.size());
+  for (const auto& t : b.triangles)
+    triangles.emplace_back(point(b.vertices[t[0]]), point(b.vertices[t[1]]), point(b.vertices[t[2]]));
+  Tree tree(triangles.begin(), triangles.end());
+  tree.accelerate_distance_queries();
+  const std::size_t samples = a.vertices.size() + a.triangles.size();
+  const double squared = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, samples, 4096), 0.0,
+      [&](const auto& range, double worst) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+          Point sample;
+          if (i < a.vertices.size()) {
+            sample = point(a.vertices[i]);
+          } else {
+            const auto& t = a.triangles[i - a.vertices.size()];
+            sample = point((a.vertices[t[0]] + a.vertices[t[1]] + a.vertices[t[2]]) / 3.0f);
+          }
+          worst = std::max(worst, tree.squared_distance(sample));
+        }
+        return worst;
+      },
+      [](double x, double y) { return std::max(x, y); });
+  return std::sqrt(squared);
+}
+
+} // namespace
+
+MeshTopology checkMeshTopology(const TriangleMesh& mesh) {
+  MeshTopology result;
+  const detail::CgalMesh cgal = detail::toCgal(mesh, &result.rejectedFaces);
+  result.closed = result.rejectedFaces == 0 && CGAL::is_closed(cgal);
+  result.selfIntersecting = CGAL::Polygon_mesh_processing::does_self_intersect(cgal);
+  return result;
+}
+
+std::vector<std::size_t> selfIntersectingTriangles(const TriangleMesh& mesh) {
+  // The mesh as a Surface_mesh, remembering which triangle each face is (a face
+  // that would make it non-manifold is left out).
+  detail::CgalMesh cgal;
+  std::vector<detail::CgalMesh::Vertex_index> vertex;
+  vertex.reserve(mesh.vertices.size());
+  for (const auto& p : mesh.vertices) vertex.push_back(cgal.add_vertex(point(p)));
+  std::vector<std::size_t> triangleOf;
+  triangleOf.reserve(mesh.triangles.size());
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const auto& corner = mesh.triangles[t];
+    if (cgal.add_face(vertex[corner[0]], vertex[corner[1]], vertex[corner[2]]) != detail::CgalMesh::null_face())
+      triangleOf.push_back(t);
+  }
+  std::vector<std::pair<detail::CgalMesh::Face_index, detail::CgalMesh::Face_index>> pairs;
+  CGAL::Polygon_mesh_processing::self_intersections(cgal, std::back_inserter(pairs));
+  std::vector<std::size_t> result;
+  for (const auto& [first, second] : pairs) {
+    result.push_back(triangleOf[first.idx()]);
+    result.push_back(triangleOf[second.idx()]);
+  }
+  std::sort(result.begin(), result.end());
+  result.erase(std::unique(result.begin(), result.end()), result.end());
+  return result;
+}
+
+double hausdorffDistance(const TriangleMesh& a, const TriangleMesh& b) {
+  return std::max(directedDistance(a, b), directedDistance(b, a));
+}
+
+} // namespace cascade::surfacing
