@@ -1,5 +1,5 @@
 /// @file Errors.h
-/// @brief The error kinds that map to `cascade` exit statuses (CONTRACT.md):
+/// @brief The error kinds that map to `cascade` exit statuses (docs/cli.md):
 ///        2 bad input, 3 unstable simulation, 1 anything else.
 #pragma once
 

@@ -1,6 +1,6 @@
 /// @file RenderStage.h
 /// @brief The render stage: preview stills of an output directory OUT
-///        (CONTRACT.md), the entry point of `cascade render` and of the
+///        (docs/cli.md), the entry point of `cascade render` and of the
 ///        render step of `cascade run`.
 ///
 /// Reads (stages talk through files only):

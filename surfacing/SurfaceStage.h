@@ -1,6 +1,6 @@
 /// @file SurfaceStage.h
 /// @brief The surfacing stage: particle caches to OpenVDB narrow-band level sets
-///        and triangle meshes (issue 5; CONTRACT.md layout).
+///        and triangle meshes (docs/cli.md layout).
 ///
 /// For every frame of a range, OUT/particles/particles.NNNN.vdb (or .ply) is
 /// turned into OUT/surface/surface.NNNN.vdb (a level set grid named "surface",
@@ -103,7 +103,7 @@ struct SurfaceOptions {
   /// The "v" grid and per-vertex mesh velocities, when the particles have velocities.
   bool velocity = true;
   /// Write mesh vertices, normals and velocities y-up ((x, y, z) -> (x, z, -y)), so
-  /// that importers assuming y-up show the z-up scene upright. See docs "Axes".
+  /// that importers assuming y-up show the z-up scene upright. See docs/surfacing.md, "Axes".
   bool meshYUp = true;
   /// Give the VDB a y-up transform (a lattice rotation, for Houdini); default z-up
   /// (Blender reads VDB coordinates as they are).

@@ -1,5 +1,5 @@
 /// @file AtomicFile.h
-/// @brief Whole-or-nothing file output (CONTRACT.md: "Every file appears whole
+/// @brief Whole-or-nothing file output (docs/cli.md: "Every file appears whole
 ///        or not at all"): write to a temporary name in the same directory,
 ///        flush it to disk, then rename over the final name.
 #pragma once

@@ -1,5 +1,5 @@
 /// @file OutputLayout.h
-/// @brief Where each stage's files live under OUT (CONTRACT.md), and frame ranges.
+/// @brief Where each stage's files live under OUT (docs/cli.md), and frame ranges.
 #pragma once
 
 #include <filesystem>

@@ -1,5 +1,5 @@
 /// @file ParticleCache.h
-/// @brief One output frame of particles on disk (CONTRACT.md:
+/// @brief One output frame of particles on disk (docs/cli.md:
 ///        OUT/particles/particles.NNNN.vdb, or .ply from other tools).
 ///
 /// The .vdb form is an OpenVDB point data grid named "particles" with the

@@ -1,6 +1,6 @@
 /// @file ExperimentComparison.h
-/// @brief A probe's time series against an experiment's table (issue 7,
-///        `cascade bench accuracy`): the relative RMS error
+/// @brief A probe's time series against an experiment's table
+///        (`cascade bench accuracy`): the relative RMS error
 ///        sqrt(mean_k ((s(x_k / timeScale - delay) - y_k) / y_k)^2) over the table
 ///        rows (x_k, y_k) the series covers, with s the series linearly
 ///        interpolated in time. x is the table's dimensionless time (e.g. Martin

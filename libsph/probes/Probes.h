@@ -1,5 +1,5 @@
 /// @file Probes.h
-/// @brief The probes of CONTRACT.md as free functions over a particle list
+/// @brief The probes of a scene as free functions over a particle list
 ///        (concept: size() and getPos(i, pos); Particles and ParticleFrame
 ///        model it): water height at (x, y), pressure at a boundary point,
 ///        force on an obstacle, surge front along a direction, fluid velocity

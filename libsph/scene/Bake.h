@@ -1,6 +1,6 @@
 /// @file Bake.h
 /// @brief `cascade bake`: runs a scene's simulation and writes, under OUT
-///        (CONTRACT.md), one particle cache per output frame
+///        (docs/cli.md), one particle cache per output frame
 ///        (particles/particles.NNNN.vdb), scene.json (every default filled
 ///        in), probes.csv, geometry/solids.obj (the solids in world
 ///        coordinates, one group per solid, for the renderer) and the bake

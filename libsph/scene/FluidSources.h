@@ -1,7 +1,7 @@
 /// @file FluidSources.h
 /// @brief Where fluid particles come from and where they leave: initial
 ///        blocks on the fluid lattice, nozzle emitters (disk or rectangle)
-///        and kill regions (CONTRACT.md scene "fluid" and "boundaries.kill").
+///        and kill regions (scene "fluid" and "boundaries.kill").
 ///
 /// Blocks: particles on a cubic lattice of the fluid spacing, centred in the
 /// box (half a spacing from its faces when the extent is a multiple of it).

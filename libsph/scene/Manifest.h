@@ -1,5 +1,5 @@
 /// @file Manifest.h
-/// @brief OUT/manifest.json (CONTRACT.md: "stages done, their input hashes,
+/// @brief OUT/manifest.json (docs/cli.md: "stages done, their input hashes,
 ///        timings") and the input hashes `cascade run` uses to skip a stage
 ///        whose inputs did not change.
 ///

@@ -1,5 +1,5 @@
 /// @file Progress.h
-/// @brief Progress of long work on stderr (CONTRACT.md): on a terminal one
+/// @brief Progress of long work on stderr (docs/cli.md): on a terminal one
 ///        line redrawn in place (frame, simulated time, steps/s, particles,
 ///        ETA); otherwise a plain line at most every `interval` seconds.
 #pragma once

@@ -1,5 +1,5 @@
 /// @file Scene.h
-/// @brief The scene model of CONTRACT.md ("Scenes: JSON, SI units, z up"):
+/// @brief The scene model (JSON, SI units, z up; README "Scenes"):
 ///        fluid (blocks, emitters), solver settings, boundaries, output,
 ///        camera, lights and probes, as plain data with every default filled in.
 ///
@@ -115,7 +115,7 @@ struct Slope {
   double angle = 0;
 };
 
-/// One key of a keyframed motion (CONTRACT.md "Moving obstacles"): at time t the
+/// One key of a keyframed motion (docs/moving-solids.md): at time t the
 /// obstacle is moved by `translate` and turned by `rotate` (degrees about x, then y,
 /// then z) about the mesh's own origin (its placed `translate`), on top of its
 /// placement.
@@ -210,7 +210,7 @@ struct Light {
   double intensity = 1;
 };
 
-/// A probe of CONTRACT.md. Fields unused by a type keep their defaults.
+/// A probe of a scene (README "Scenes"). Fields unused by a type keep their defaults.
 struct Probe {
   std::string name;
   std::string type;                     ///< "height" | "pressure" | "force" | "front" | "body" | "velocity"

@@ -1,5 +1,5 @@
 /// @file SceneJson.h
-/// @brief The JSON scene format (CONTRACT.md): parsing with validation,
+/// @brief The JSON scene format (README "Scenes"): parsing with validation,
 ///        writing with every default filled in, size presets and `--set`.
 ///
 /// Validation errors are InputError with one line naming the file and the

@@ -310,7 +310,7 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
   const Real cap = scene.solver.type == "dfsph" ? kDfsphMaxCfl : kWcsphMaxCfl;
   if (log && scene.solver.cfl > double(cap))
     *log << "warning: solver.cfl " << scene.solver.cfl << " is above the " << cap << " " << scene.solver.type
-         << " holds (faster steps carry particles into obstacles or gain energy; README, Solvers and their limits): "
+         << " holds (faster steps carry particles into obstacles or gain energy; docs/solvers.md): "
             "steps use "
          << cap << "\n";
 }

@@ -84,9 +84,9 @@ public:
   /// is a full one, as after restore()), so that a run restored from a
   /// checkpoint taken now continues bit-identically: the incremental grid
   /// rebuild orders points within a cell by history. The bake calls it at
-  /// every checkpoint (issue 4).
+  /// every checkpoint.
   void resetNeighborSearch();
-  /// Removes the particles whose flag is true (scene kill regions; issue 4);
+  /// Removes the particles whose flag is true (scene kill regions);
   /// returns how many. Not counted in removedCount().
   std::size_t removeParticles(const std::vector<char>& remove);
   /// Particles removed because they left the domain, since the start.

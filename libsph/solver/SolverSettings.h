@@ -71,7 +71,7 @@ struct SolverSettings {
   /// the weakly compressible choice (density varies by about 1 %).
   Real stiffness = Real(0);
   /// Default: the Hamiltonian form with the Wendland C2 pair below (the
-  /// still-water test; README "Solvers and their limits").
+  /// still-water test; docs/solvers.md).
   PressureForce pressureForce = PressureForce::Hamiltonian;
   /// Density and pressure-gradient kernels of WCSPH (the viscosity Laplacian stays
   /// SEED (9)). Default Wendland C2: at h = 2 spacings the resting particle
@@ -119,15 +119,15 @@ struct SolverSettings {
   /// simulation with InstabilityError.
   Real instabilitySpeedFactor = Real(20);
 
-  // --- DFSPH (issue 7; unused by WCSPH) ---
+  // --- DFSPH (unused by WCSPH) ---
   Real densityTolerance = Real(0.0005);     ///< relative average density error
   /// DFSPH divergence-free solve: mean predicted relative density change of one step from
   /// the velocity divergence. SPlisHSPlasH uses 0.1 %; 0.02 % leaves the constant-density
-  /// solve less to correct and quiets resting columns (measured, issue 7), for no more CPU.
+  /// solve less to correct and quiets resting columns (measured), for no more CPU.
   Real divergenceTolerance = Real(0.0002);
   /// DFSPH: most sweeps of each solve per step. The relaxed sweeps (omega 0.6) need more
   /// than SPlisHSPlasH's 100 in deep water: a 72-layer column needs 60 a step on average
-  /// and hit 100 in bursts, after which it rang (issue 7, measured).
+  /// and hit 100 in bursts, after which it rang (measured).
   int maxIterations = 300;
 
   // --- adaptive time step ---

@@ -36,14 +36,14 @@ double millisecondsSince(Clock::time_point start) {
 }
 
 constexpr Real kDivergenceWarmStart = Real(0.5);  // divergence solve: half the last stiffness (SPlisHSPlasH)
-// Constant-density solve (issue 19): the primal-dual active set method with CG on the
+// Constant-density solve: the primal-dual active set method with CG on the
 // free set (BoundConstrainedCG.h), from the whole stiffness of the last step (the solve may
 // lower it: an overshoot is taken back, so no half warm start is needed). It stops when the
 // mean predicted compression is below the tolerance and every particle's residual below
 // kMaxResidualShare of it. The mean alone is diluted by depth: a missing share f of the
 // hydrostatic support of an L-layer column shows only in the floor layer, as a residual of
 // f g dt^2 / spacing there and 1/L of that on average; relaxed Jacobi sweeps that stopped on
-// the mean left a resting column unsupported beyond about 80 layers (issue 7). Measured on
+// the mean left a resting column unsupported beyond about 80 layers. Measured on
 // a resting 200-layer column (12 x 4 particles across, a/18 spacing): with the largest
 // residual held to 1e-5 (0.02 x 0.05 %) the floor pressure reads 0.99-1.00 rho g H with a
 // step-to-step spread of 0.05 after 0.3 s, in 70-80 products a step; at 1e-4 the spread is
@@ -264,7 +264,7 @@ TimeStepNeeds TimeStepDFSPH::needs(const SimulationSettings&, const DerivedConst
   TimeStepNeeds needs;
   needs.speedOfSoundInCfl = false;  // incompressible: CFL on the velocity only
   needs.mirrorParticles = true;     // the boundary model: type II mirror particles (SEED section 2.2)
-  // Force limit dt <= 0.06 sqrt(h / a) with a the non-pressure accelerations. Measured (issue 7):
+  // Force limit dt <= 0.06 sqrt(h / a) with a the non-pressure accelerations. Measured:
   // 0.12 saves 19 % of the CPU time of the 59 k dam break's first 0.4 s, but the 4-layer
   // hydrostatic slab then holds only 0.1 % average compression (0.047 % at 0.06) and moves
   // at 0.03 m/s RMS.

@@ -32,7 +32,7 @@
 ///      rho_0): a bound-constrained problem, solved by the primal-dual active set method with
 ///      Jacobi-scaled conjugate gradients (BoundConstrainedCG.h), from the whole stiffness of
 ///      the last step; it stops when the mean compression is below densityTolerance and every
-///      particle's below 2 % of it (the mean alone is diluted by depth: issue 19,
+///      particle's below 2 % of it (the mean alone is diluted by depth:
 ///      docs/dfsph-deep-water.md), at most maxIterations operator products;
 ///   5. x += dt v (symplectic Euler).
 /// Each divergence-free Jacobi sweep, and each product of the density solve's operator, is
@@ -91,7 +91,7 @@ namespace cascade {
 constexpr int kDfsphStillWaterLayers = 200;
 
 /// Largest CFL factor (dt = cfl h / v_max, h the support radius: one spacing a step at
-/// 0.5) DFSPH holds; a larger solver.cfl is used as this. Measured (issue 7), a 10 m/s
+/// 0.5) DFSPH holds; a larger solver.cfl is used as this. Measured, a 10 m/s
 /// jet into the 900-triangle bunny at 1 cm spacing (stress suite), where the velocity
 /// CFL binds: 0.5 and below keep every particle out of the bunny (also at 15 and
 /// 20 m/s); 0.6 lets 18 particles into it, 0.75 41, 1.0 45 (and the kinetic energy

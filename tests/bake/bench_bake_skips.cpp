@@ -1,4 +1,4 @@
-// What each "skip what a scene does not need" saves (issue 4, item 7).
+// What each "skip what a scene does not need" saves.
 // Not a test: prints a table. Usage: bench_bake_skips [end_time_s] [size]
 // Base: the dam break scene (scenes/dambreak.json) with viscosity, a mesh
 // obstacle (the tower, at the far end of the tank, which the water does not

@@ -1,4 +1,4 @@
-// Resumable bakes (issue 4): a bake killed with SIGKILL in the middle of a
+// Resumable bakes: a bake killed with SIGKILL in the middle of a
 // frame (or stopped with SIGINT) and started again with the same command
 // ends with the same particles as one never stopped; run skips an unchanged
 // bake; an unstable bake exits 3; bad scenes exit 2 and damage nothing.

@@ -1,4 +1,4 @@
-// Bakes with moving solids (issue 16): a crate dropped into a pool, killed with
+// Bakes with moving solids: a crate dropped into a pool, killed with
 // SIGKILL mid-frame and resumed, ends with the same particles, body probe rows
 // and per-frame solids as a bake never stopped; bad moving-solid input exits 2
 // with one line naming the file and the JSON path.

@@ -1,4 +1,4 @@
-// Probes and caches of a bake (issue 4): the pressure probe of a tank at rest
+// Probes and caches of a bake: the pressure probe of a tank at rest
 // against rho g d; the probes.csv layout; cache round trip of bake-like data
 // within the codecs' stated precision (ParticleCache.h).
 #include "TestTempDir.h"

@@ -1,4 +1,4 @@
-// Validation of deforming mesh sequences (issue 16) in the water:
+// Validation of deforming mesh sequences in the water:
 // - a sequence that only translates a cube gives the fluid what the same motion
 //   given as keyframes gives (the rigid path), for both solvers;
 // - a cube that grows under water raises the free surface by its volume change over

@@ -1,4 +1,4 @@
-// Unit tests of deforming mesh sequences (issue 16): loading and its errors, the
+// Unit tests of deforming mesh sequences: loading and its errors, the
 // surface and its velocity between frames, type I samples made once per frame
 // interval and placed by interpolation, and the guard against a wall that moves
 // onto a particle.

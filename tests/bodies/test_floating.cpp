@@ -1,4 +1,4 @@
-// Validation of two-way coupling (issue 16), for both solvers:
+// Validation of two-way coupling, for both solvers:
 // - a cube held still at its draft carries the weight of the water it displaces;
 // - Archimedes: closed cubes of density 500 and 800 (and a raft) released at the
 //   surface of still water come to rest at a draft of rho_body / rho_water x height;

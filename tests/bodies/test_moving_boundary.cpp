@@ -1,4 +1,4 @@
-// Unit tests of moving solids (issue 16): a MovingBoundary answers every query
+// Unit tests of moving solids: a MovingBoundary answers every query
 // in its reference frame (inside, mirrors, the guard), its mirrors carry the
 // wall's velocity, its type I samples are placed, not re-sampled; a rigid body
 // falls freely and comes to rest on the floor; action and reaction; exact

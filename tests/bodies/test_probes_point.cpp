@@ -1,4 +1,4 @@
-// Point probes (issue 16): the velocity probe is the Shepard-normalised kernel average
+// Point probes: the velocity probe is the Shepard-normalised kernel average
 // of the fluid's velocity (exact for a uniform field, the field's value at the centre
 // of a symmetric lattice for a linear one, none where no fluid is near); the grid that
 // finds each point's particles lists exactly those within the radius, so the pressure

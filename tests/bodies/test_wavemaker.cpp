@@ -1,4 +1,4 @@
-// Piston wavemaker (issue 16, label long): the shipped flume (scenes/wavemaker.json,
+// Piston wavemaker (label long): the shipped flume (scenes/wavemaker.json,
 // kd = 1.0, stroke 0.03 m, period 0.727 s) makes waves whose height, read about three
 // wavelengths from the paddle before the far wall's reflection arrives, matches
 // Biesel's linear transfer function H / S = 2 (cosh 2kd - 1) / (sinh 2kd + 2kd)

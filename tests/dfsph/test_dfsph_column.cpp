@@ -1,4 +1,4 @@
-// DFSPH in a tall, narrow water column (issue 7: the tank's floor pressure and
+// DFSPH in a tall, narrow water column (the tank's floor pressure and
 // largest compression grew with the column's height in particles).
 //
 // A quasi-2-D column (symmetry planes front and back, walls elsewhere) of
@@ -96,9 +96,9 @@ TEST(DFSPHColumn, ThirtySixLayersHoldHydrostaticPressureStepByStep) {
   EXPECT_LT(r.rmsSpeed, 0.005 * std::sqrt(kStandardGravity * 36 * 0.003175));  // at rest (was 1.1 % of sqrt(g H))
 }
 #else
-// 72 layers (the bench tank at a/36) and 200 (a pool a body falls into; issue 19's target:
+// 72 layers (the bench tank at a/36) and 200 (a pool a body falls into; the target:
 // at rest after 2 s, RMS speed below 1 % of sqrt(g H), floor pressure within 1 % of
-// rho g H), label long. Until issue 19 both failed: relaxed Jacobi sweeps that stopped on
+// rho g H), label long. Both failed before docs/dfsph-deep-water.md's fix: relaxed Jacobi sweeps that stopped on
 // the mean compression (diluted by depth: a missing share of the hydrostatic support shows
 // in the floor layer only), and a wall layer that the stiffness of its own mirror images
 // sets ringing once omega dt > 2 (kappa ~ g H grows with depth). Fixed by the bound-

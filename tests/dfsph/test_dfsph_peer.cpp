@@ -1,4 +1,4 @@
-// The peer comparison of issue 7 (label long): a 3D dam break of about 59 k
+// The peer comparison with SPlisHSPlasH (label long): a 3D dam break of about 59 k
 // fluid particles (spacing 5 cm, the particle diameter of SPlisHSPlasH's
 // DamBreakModel), DFSPH at CFL 0.5 for 1 s of simulated time: milliseconds per
 // step, wall time per simulated second and the average compression

@@ -1,4 +1,4 @@
-// Fluid sources (issue 4): block lattices and nozzle emitters.
+// Fluid sources: block lattices and nozzle emitters.
 #include "libsph/scene/FluidSources.h"
 
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Scene format (issue 4): parse -> write -> parse identity, defaults, presets,
+// Scene format: parse -> write -> parse identity, defaults, presets,
 // --set overrides and every kind of validation error.
 #include "TestTempDir.h"
 #include "libsph/Errors.h"

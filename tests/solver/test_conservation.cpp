@@ -1,4 +1,4 @@
-// Conservation (issue 3, validation): mass is exact; a free blob with no walls
+// Conservation (validation): mass is exact; a free blob with no walls
 // keeps its linear momentum in zero gravity (pairwise forces cancel, SEED (5)
 // and (6) in their symmetric forms), and under gravity alone its momentum
 // grows by M g t.

@@ -1,6 +1,6 @@
 // Dam break against Martin & Moyce (1952), n^2 = 2: the surge front Z(T),
 // Z = x_front / a, T = t sqrt(2 g / a), for T in [0, 3], measured with the
-// `front` probe (CONTRACT.md), within 10 % RMS (relative to the experiment).
+// `front` probe, within 10 % RMS (relative to the experiment).
 #include "SolverTestScenes.h"
 
 #include "libsph/probes/Probes.h"

@@ -1,4 +1,4 @@
-// Hydrostatic tank (issue 3, validation): after settling, the pressure against
+// Hydrostatic tank (validation): after settling, the pressure against
 // depth follows rho g d. Still water is in test_still_water.cpp.
 #include "SolverTestScenes.h"
 

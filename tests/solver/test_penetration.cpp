@@ -1,4 +1,4 @@
-// No penetration (issue 3, validation): a 5 m/s jet against the bunny
+// No penetration (validation): a 5 m/s jet against the bunny
 // obstacle (the bunny scene's mesh: the SEED's 3,851-triangle scan with its
 // holes filled, simplified to 900 triangles, SEED section 2.2):
 // no fluid particle inside the mesh (generalised winding number) at any

@@ -1,8 +1,8 @@
-// Still water (issue 3, validation): at rest, 5,000 steps keep the maximum
+// Still water (validation): at rest, 5,000 steps keep the maximum
 // speed below 1 % of sqrt(g H), and no particle leaves the tank.
 //
 // Causes of the spurious currents found with the SEED's WCSPH (up to 7 % of
-// sqrt(g H)), and the default settings that remove them (README, "Solvers and
+// sqrt(g H)), and the default settings that remove them (docs/solvers.md, "Solvers and
 // their limits"):
 // 1. The SEED's kernel pair (poly6 density SEED (4), spiky pressure gradient
 //    SEED (5), (8)) does not match: for about 10 % of the short waves on the
@@ -109,7 +109,7 @@ TEST_P(CompressedClosedBox, StaysAtRestWithMatchingKernels) {
             << 100 * worst / std::sqrt(kStandardGravity * H) << " % of sqrt(gH) (H = " << H
             << " m); mean pressure at the end " << pressure << " Pa\n";
   if (seedPair) {
-    EXPECT_GT(worst, limit) << "the SEED pair's lattice instability no longer shows: update the README and this test";
+    EXPECT_GT(worst, limit) << "the SEED pair's lattice instability no longer shows: update docs/solvers.md and this test";
   } else {
     EXPECT_LT(worst, limit);
     // Still compressed as it started: the pressure has not leaked into motion.

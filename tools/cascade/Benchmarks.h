@@ -16,11 +16,11 @@ struct BenchPaths {
 };
 BenchPaths& benchPaths();
 
-BenchTable benchNeighbors();  ///< bench_neighbors.cpp (issue 2)
-BenchTable benchStep();       ///< bench_step.cpp (issue 3)
-BenchTable benchAccuracy();   ///< bench_accuracy.cpp (issue 7)
-BenchTable benchSurface();    ///< bench_surface.cpp (issue 5)
-BenchTable benchRender();     ///< bench_render.cpp (issue 6)
-BenchTable benchBodies();     ///< bench_bodies.cpp (issue 16)
+BenchTable benchNeighbors();  ///< bench_neighbors.cpp
+BenchTable benchStep();       ///< bench_step.cpp
+BenchTable benchAccuracy();   ///< bench_accuracy.cpp
+BenchTable benchSurface();    ///< bench_surface.cpp
+BenchTable benchRender();     ///< bench_render.cpp
+BenchTable benchBodies();     ///< bench_bodies.cpp
 
 } // namespace cascade::cli

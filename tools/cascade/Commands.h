@@ -1,5 +1,5 @@
 /// @file Commands.h
-/// @brief The `cascade` subcommands (CONTRACT.md). Each is registered by its
+/// @brief The `cascade` subcommands (docs/cli.md). Each is registered by its
 ///        own file; errors propagate as the exceptions of libsph/Errors.h and
 ///        main() turns them into one stderr line and an exit status.
 #pragma once

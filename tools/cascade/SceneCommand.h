@@ -12,7 +12,7 @@
 
 namespace cascade::cli {
 
-/// OUT: as given, else out/<scene name> (CONTRACT.md).
+/// OUT: as given, else out/<scene name> (docs/cli.md).
 std::filesystem::path defaultOutDir(const scene::Scene& scene, const std::string& given);
 
 /// Installs SIGINT/SIGTERM handlers that ask a bake to stop after its current step.

@@ -1,5 +1,5 @@
 // `cascade bench accuracy`: run time against error for each solver over a
-// ladder of particle spacings (issue 7).
+// ladder of particle spacings.
 //
 // Per solver (wcsph, dfsph) and spacing s:
 //  - dam break, Martin & Moyce (1952) n^2 = 2: a column a x W x 2a (a = 2.25 in,
@@ -78,12 +78,13 @@ constexpr double kSampleWindow = 0.1;    // s, hydrostatic averages over the end
 constexpr double kReleaseShift = 0.175;
 
 // Martin & Moyce (1952) Table 2, n^2 = 2: surge front (Z = x/a, T = t sqrt(2g/a)).
-// Source: /work/shared/validation/martin_moyce_1952_n2_2_surge_front_table.csv (T_ocellaris).
+// Martin & Moyce 1952, Phil. Trans. R. Soc. A 244:312-324, doi:10.1098/rsta.1952.0006, as
+// transcribed in Ocellaris' scripts/plot_dam_break.py (Lethe's example agrees within 0.02 in T).
 const TimeSeries kFrontTable = {
     {0.41, 1.11}, {0.84, 1.22}, {1.19, 1.44}, {1.43, 1.67}, {1.63, 1.89}, {1.83, 2.11}, {1.98, 2.33}, {2.2, 2.56},
     {2.32, 2.78}, {2.51, 3.0},  {2.65, 3.22}, {2.83, 3.44}, {2.98, 3.67}, {3.11, 3.89}, {3.33, 4.11}};
 // Martin & Moyce (1952) Table 6, n^2 = 2: residual column at the back wall (H = h/(2a), tau = t sqrt(g/a)).
-// Source: /work/shared/validation/martin_moyce_1952_n2_2_column_height_table.csv.
+// Martin & Moyce 1952, doi:10.1098/rsta.1952.0006, as transcribed in Ocellaris' scripts/plot_dam_break.py.
 const TimeSeries kHeightTable = {
     {0.56, 0.94}, {0.77, 0.89}, {0.93, 0.83}, {1.08, 0.78}, {1.28, 0.72}, {1.46, 0.67},
     {1.66, 0.61}, {1.84, 0.56}, {2.0, 0.5},   {2.21, 0.44}, {2.45, 0.39}, {2.7, 0.33},

@@ -1,4 +1,4 @@
-// `cascade bench bodies`: what a floating body costs a step (issue 16). The shipped
+// `cascade bench bodies`: what a floating body costs a step. The shipped
 // bunny_drop scene (production size; CASCADE_BENCH_SIZE=seed for a quick run), with the
 // bunny already floating (its centre of mass at the water level, so both runs have it
 // in the water), baked for a fixed number of steps twice: as a rigid body (its samples

@@ -1,7 +1,7 @@
 // `cascade bench render`: time per preview still at 1280x720 with 4x
 // multisampling, for a 100 k and a 1 M triangle fluid mesh (a wavy
 // latitude-longitude sphere) with an obstacle (a box tower) on a floor.
-// Columns (issue 6): triangles, width, height, samples, ms_per_frame; plus
+// Columns: triangles, width, height, samples, ms_per_frame; plus
 // cpu_ms_per_frame (process CPU time per still, all threads: on a shared
 // machine the wall time can exceed it by the time spent waiting for a core)
 // and upload_ms/draw_ms are not separated: a still is mesh upload, five

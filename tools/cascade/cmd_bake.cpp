@@ -1,4 +1,4 @@
-// `cascade bake SCENE.json [-o OUT] [--frames A-B] [--set KEY=VALUE]...` (CONTRACT.md, issue 4).
+// `cascade bake SCENE.json [-o OUT] [--frames A-B] [--set KEY=VALUE]...` (docs/cli.md).
 #include "Commands.h"
 #include "SceneCommand.h"
 

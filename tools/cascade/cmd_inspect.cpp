@@ -1,4 +1,4 @@
-// `cascade inspect FILE` (CONTRACT.md): what a particle cache, VDB level set
+// `cascade inspect FILE` (docs/cli.md): what a particle cache, VDB level set
 // or OBJ / PLY mesh holds; for a particle cache also a checksum over positions and
 // velocities in id order (libsph/io/ParticleCache.h).
 #include "Commands.h"

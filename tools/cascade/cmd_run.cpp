@@ -1,4 +1,4 @@
-// `cascade run SCENE.json [-o OUT] [--set KEY=VALUE]...` (CONTRACT.md, issue 4):
+// `cascade run SCENE.json [-o OUT] [--set KEY=VALUE]...` (docs/cli.md):
 // bake, surface, render; a stage whose inputs did not change is skipped.
 //
 // Input hashes (kept in OUT/manifest.json): the bake's is the hash of the

@@ -1,4 +1,4 @@
-// `cascade surface OUT [--frames A-B] [surfacing options]` (CONTRACT.md): defaults
+// `cascade surface OUT [--frames A-B] [surfacing options]` (docs/cli.md): defaults
 // from OUT/scene.json's "surface" block, overridden by the options given.
 #include "Commands.h"
 

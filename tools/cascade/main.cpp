@@ -1,4 +1,4 @@
-// cascade: the one program of the Cascade pipeline (CONTRACT.md).
+// cascade: the one program of the Cascade pipeline (docs/cli.md).
 #include "Commands.h"
 
 #include "libsph/Errors.h"
