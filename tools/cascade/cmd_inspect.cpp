@@ -150,7 +150,7 @@ void inspectMesh(const fs::path& path) {
 } // namespace
 
 void addInspectCommand(CLI::App& app) {
-  CLI::App* command = app.add_subcommand("inspect", "show what a particle cache, VDB or OBJ file holds");
+  CLI::App* command = app.add_subcommand("inspect", "show what a particle cache, VDB, OBJ or PLY file holds");
   auto file = std::make_shared<std::string>();
   command->add_option("file", *file, "particles.NNNN.vdb | .ply | surface.NNNN.vdb | fluid.NNNN.obj | .ply")->required();
   command->callback([file] {

@@ -42,7 +42,7 @@ void addRenderCommand(CLI::App& app) {
                       "Also render N views around the first frame: OUT/render/turntable.NNNN.png");
   command->add_flag("--force", options->render.force, "Redraw frames whose PNG is already up to date");
   command->add_option("--mesh-up", options->meshUp,
-                      "Up axis of the fluid OBJ files: auto (header comment, manifest, fit), y or z")
+                      "Up axis of the fluid mesh files: auto (header comment, manifest, fit), y or z")
       ->check(CLI::IsMember({"auto", "y", "z"}))
       ->capture_default_str();
   command->callback([options] {
