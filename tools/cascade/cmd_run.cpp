@@ -1,10 +1,11 @@
 // `cascade run SCENE.json [-o OUT] [--set KEY=VALUE]...` (docs/cli.md):
 // bake, surface, render; a stage whose inputs did not change is skipped.
 //
-// Input hashes (kept in OUT/manifest.json): the bake's is the hash of the
-// resolved scene and its mesh files (Manifest.h); surfacing and rendering
-// depend only on the particles the bake made (a function of that hash) and
-// on the scene's camera and lights (part of it), so theirs derive from it.
+// Input hashes (kept in OUT/manifest.json, Manifest.h): the bake's covers the
+// resolved scene but its surface block, camera and lights, and its mesh files;
+// the surface stage's chains the bake's with the surface block, the render
+// stage's chains the surface stage's with the camera and lights. So a new
+// camera re-renders, new surface settings re-surface, and neither re-bakes.
 // The surface and render stages run as `cascade surface OUT` and
 // `cascade render OUT` child processes (stages talk through files only);
 // when a stage's input changed, its old outputs are removed first so that no
