@@ -61,26 +61,16 @@ double directedDistance(const TriangleMesh& a, const TriangleMesh& b) {
 
 MeshTopology checkMeshTopology(const TriangleMesh& mesh) {
   MeshTopology result;
-  const detail::CgalMesh cgal = detail::toCgal(mesh, &result.rejectedFaces);
+  const detail::CgalMesh cgal = detail::toCgal(mesh);
+  result.rejectedFaces = mesh.triangles.size() - cgal.number_of_faces();
   result.closed = result.rejectedFaces == 0 && CGAL::is_closed(cgal);
   result.selfIntersecting = CGAL::Polygon_mesh_processing::does_self_intersect(cgal);
   return result;
 }
 
 std::vector<std::size_t> selfIntersectingTriangles(const TriangleMesh& mesh) {
-  // The mesh as a Surface_mesh, remembering which triangle each face is (a face
-  // that would make it non-manifold is left out).
-  detail::CgalMesh cgal;
-  std::vector<detail::CgalMesh::Vertex_index> vertex;
-  vertex.reserve(mesh.vertices.size());
-  for (const auto& p : mesh.vertices) vertex.push_back(cgal.add_vertex(point(p)));
-  std::vector<std::size_t> triangleOf;
-  triangleOf.reserve(mesh.triangles.size());
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    const auto& corner = mesh.triangles[t];
-    if (cgal.add_face(vertex[corner[0]], vertex[corner[1]], vertex[corner[2]]) != detail::CgalMesh::null_face())
-      triangleOf.push_back(t);
-  }
+  std::vector<std::size_t> triangleOf;  // the triangle of each face
+  const detail::CgalMesh cgal = detail::toCgal(mesh, &triangleOf);
   std::vector<std::pair<detail::CgalMesh::Face_index, detail::CgalMesh::Face_index>> pairs;
   CGAL::Polygon_mesh_processing::self_intersections(cgal, std::back_inserter(pairs));
   std::vector<std::size_t> result;

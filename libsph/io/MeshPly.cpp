@@ -20,10 +20,6 @@ static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "PLY records are writte
 /// Records formatted and written per chunk (bounds the buffer at a few MB).
 constexpr std::size_t kPlyChunkRecords = std::size_t(1) << 17;
 
-Eigen::Vector3f mapAxes(const Eigen::Vector3f& v, MeshAxes axes) {
-  return axes == MeshAxes::ZUpToYUp ? Eigen::Vector3f(v.x(), v.z(), -v.y()) : v;
-}
-
 /// Writes `count` records of `size` bytes, each made by fill(record, bytes), in
 /// chunks formatted in parallel.
 template <class Fill>
@@ -69,9 +65,9 @@ void writePly(const std::filesystem::path& path, const TriangleMesh& mesh, const
         std::memcpy(out, v.data(), 3 * sizeof(float));
         out += 3 * sizeof(float);
       };
-      put(mapAxes(mesh.vertices[i], axes));
-      if (withNormals) put(mapAxes(mesh.normals[i], axes));
-      if (withVelocities) put(mapAxes(mesh.velocities[i], axes));
+      put(toFileAxes(mesh.vertices[i], axes));
+      if (withNormals) put(toFileAxes(mesh.normals[i], axes));
+      if (withVelocities) put(toFileAxes(mesh.velocities[i], axes));
     });
     ok = ok && writeRecords(file.get(), mesh.triangles.size(), faceSize, [&](std::size_t t, char* out) {
       *out = 3;

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <fstream>
+#include <stdexcept>
 #include <cstring>
 #include <sstream>
 
@@ -51,8 +53,21 @@ std::size_t plyTypeSize(PlyType type) {
   return 0;
 }
 
-PlyReader::PlyReader(const std::filesystem::path& path) : mWhere(path.string() + ": ") {
-  mData = readTextFile(path);  // InputError if it cannot be read
+PlyReader::PlyReader(const std::filesystem::path& path, bool headerOnly)
+    : mWhere(path.string() + ": "), mHeaderOnly(headerOnly) {
+  if (!headerOnly) {
+    mData = readTextFile(path);  // InputError if it cannot be read
+  } else {  // up to the line after "end_header" (a header is at most a few kB; 1 MiB bounds the search)
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError(mWhere + "cannot open file");
+    char chunk[4096];
+    while (in && mData.size() < (std::size_t(1) << 20)) {
+      in.read(chunk, sizeof chunk);
+      mData.append(chunk, std::size_t(in.gcount()));
+      const std::size_t end = mData.find("end_header");
+      if (end != std::string::npos && mData.find('\n', end) != std::string::npos) break;
+    }
+  }
   const std::size_t headerEnd = mData.find("end_header");
   if (mData.compare(0, 3, "ply") != 0 || headerEnd == std::string::npos) throw InputError(mWhere + "not a PLY file");
   std::istringstream header(mData.substr(0, headerEnd));
@@ -165,6 +180,7 @@ void PlyReader::readRecord(const PlyElement& element, std::size_t recordIndex) {
 }
 
 void PlyReader::seek(std::size_t index) {
+  if (mHeaderOnly) throw std::logic_error("PlyReader: records read from a header-only reader");
   if (index >= mElements.size()) throw InputError(mWhere + "no such PLY element");
   if (index < mElement) {  // back to the start of the body
     mPosition = mBodyStart;

@@ -39,7 +39,8 @@ std::size_t plyTypeSize(PlyType type);
 class PlyReader {
 public:
   /// Reads `path` and its header; throws InputError if it is missing or not PLY.
-  explicit PlyReader(const std::filesystem::path& path);
+  /// With `headerOnly`, only the header is read (elements() and comments(); no read()).
+  explicit PlyReader(const std::filesystem::path& path, bool headerOnly = false);
 
   const std::vector<PlyElement>& elements() const { return mElements; }
   const std::vector<std::string>& comments() const { return mComments; }
@@ -69,6 +70,7 @@ private:
   std::vector<PlyElement> mElements;
   std::vector<std::string> mComments;
   bool mBinary = true;
+  bool mHeaderOnly = false;
   std::size_t mBodyStart = 0;
   std::size_t mPosition = 0;   ///< next byte to read
   std::size_t mElement = 0;    ///< element the position is at the start of

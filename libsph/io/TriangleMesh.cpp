@@ -178,8 +178,8 @@ char* putFloat(char* out, float value) {
 char* putVector(char* out, const char* tag, std::size_t tagLength, const Eigen::Vector3f& v, MeshAxes axes) {
   std::memcpy(out, tag, tagLength);
   out += tagLength;
-  const float c[3] = {v.x(), axes == MeshAxes::ZUpToYUp ? v.z() : v.y(), axes == MeshAxes::ZUpToYUp ? -v.y() : v.z()};
-  for (float value : c) {
+  const Eigen::Vector3f c = toFileAxes(v, axes);
+  for (float value : {c.x(), c.y(), c.z()}) {
     *out++ = ' ';
     out = putFloat(out, value);
   }

@@ -45,6 +45,11 @@ enum class MeshAxes {
   ZUpToYUp,  ///< a z-up point (x, y, z) stored as (x, z, -y), for y-up importers
 };
 
+/// `v` (a point, normal or velocity) in the file's axes.
+inline Eigen::Vector3f toFileAxes(const Eigen::Vector3f& v, MeshAxes axes) {
+  return axes == MeshAxes::ZUpToYUp ? Eigen::Vector3f(v.x(), v.z(), -v.y()) : v;
+}
+
 /// Area of the mesh's triangles (m^2 for a mesh in metres).
 double surfaceArea(const TriangleMesh& mesh);
 

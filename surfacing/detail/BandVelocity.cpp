@@ -112,7 +112,7 @@ openvdb::Vec3SGrid::Ptr velocityOverBand(const openvdb::FloatGrid& levelSet, con
                   } else {  // across the face: the same voxel on the far side of the next leaf
                     owner = faceLeaves[l][std::size_t(n)];
                     if (!owner) continue;
-                    neighbor = offset + (side < 0 ? (D - 1) * stride[axis] : 0) - (side < 0 ? 0 : (D - 1) * stride[axis]);
+                    neighbor = side < 0 ? offset + (D - 1) * stride[axis] : offset - (D - 1) * stride[axis];
                   }
                   if (owner->isValueOn(neighbor)) sum += owner->getValue(neighbor), ++count6;
                 }

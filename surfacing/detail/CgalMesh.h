@@ -18,18 +18,20 @@ using CgalKernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using CgalMesh = CGAL::Surface_mesh<CgalKernel::Point_3>;
 
 /// The mesh as a Surface_mesh; a face that would make it non-manifold is left
-/// out and counted in `rejected` (if given).
-inline CgalMesh toCgal(const TriangleMesh& mesh, std::size_t* rejected = nullptr) {
+/// out. `triangleOf` (if given) receives, for each face index, its triangle's index.
+inline CgalMesh toCgal(const TriangleMesh& mesh, std::vector<std::size_t>* triangleOf = nullptr) {
   CgalMesh out;
   out.reserve(CgalMesh::size_type(mesh.vertices.size()), CgalMesh::size_type(3 * mesh.triangles.size() / 2),
               CgalMesh::size_type(mesh.triangles.size()));
   std::vector<CgalMesh::Vertex_index> vertex;
   vertex.reserve(mesh.vertices.size());
   for (const auto& p : mesh.vertices) vertex.push_back(out.add_vertex(CgalKernel::Point_3(p.x(), p.y(), p.z())));
-  std::size_t refused = 0;
-  for (const auto& t : mesh.triangles)
-    if (out.add_face(vertex[t[0]], vertex[t[1]], vertex[t[2]]) == CgalMesh::null_face()) ++refused;
-  if (rejected) *rejected = refused;
+  if (triangleOf) triangleOf->clear();
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const auto& corner = mesh.triangles[t];
+    if (out.add_face(vertex[corner[0]], vertex[corner[1]], vertex[corner[2]]) != CgalMesh::null_face() && triangleOf)
+      triangleOf->push_back(t);
+  }
   return out;
 }
 

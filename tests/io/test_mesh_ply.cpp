@@ -4,6 +4,7 @@
 // other property types) reads too; broken files are named.
 #include "TestTempDir.h"
 #include "libsph/Errors.h"
+#include "libsph/io/Ply.h"
 #include "libsph/io/TriangleMesh.h"
 
 #include <assimp/Importer.hpp>
@@ -120,6 +121,22 @@ TEST(MeshPly, ReadsOtherToolsAsciiPolygonsAndTypes) {
   const std::vector<std::array<std::uint32_t, 3>> expected = {{0, 1, 2}, {0, 2, 3}, {0, 1, 4}};
   EXPECT_EQ(mesh.triangles, expected);
   EXPECT_EQ(mesh.vertices[4], Eigen::Vector3f(0.5f, 0.5f, 1.0f));
+}
+
+TEST(MeshPly, AHeaderOnlyReaderSeesTheElementsAndComments) {
+  const fs::path dir = test::freshTempDir("mesh_ply_header");
+  const TriangleMesh mesh = randomMesh(40);
+  writePly(dir / "mesh.ply", mesh, "up: y");
+  const PlyReader header(dir / "mesh.ply", true);
+  ASSERT_EQ(header.elements().size(), 2u);
+  EXPECT_EQ(header.elements()[0].name, "vertex");
+  EXPECT_EQ(header.elements()[0].count, mesh.vertices.size());
+  EXPECT_EQ(header.elements()[1].name, "face");
+  EXPECT_EQ(header.elements()[1].count, mesh.triangles.size());
+  ASSERT_EQ(header.comments().size(), 2u);
+  EXPECT_EQ(header.comments()[1], "up: y");
+  std::ofstream(dir / "text.ply") << "this is not a PLY file\n";
+  EXPECT_THROW(PlyReader(dir / "text.ply", true), InputError);
 }
 
 TEST(MeshPly, BrokenFilesAreNamed) {

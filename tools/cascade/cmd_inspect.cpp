@@ -113,7 +113,7 @@ void inspectVdb(const fs::path& path) {
 
 /// A PLY with faces is a mesh; one with vertices only, a particle file.
 bool plyHasFaces(const fs::path& path) {
-  const PlyReader reader(path);
+  const PlyReader reader(path, true);  // the header only: the file is read again as what it is
   for (const PlyElement& element : reader.elements())
     if (element.name == "face" && element.count > 0) return true;
   return false;
