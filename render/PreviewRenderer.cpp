@@ -138,7 +138,8 @@ struct PreviewRenderer::Impl {
   Program depthProgram, solidShadowProgram, skyProgram, groundProgram, solidProgram, waterBufferProgram, waterMaskProgram,
       waterShadeProgram, sphereProgram, sphereShadowProgram, toneMapProgram;
 
-  GLuint emptyVao = 0, fluidVao = 0, solidsVao = 0, groundVao = 0, sphereVao = 0;
+  GLuint emptyVao = 0, fluidVao = 0, solidsVao = 0, groundVao = 0, sphereVao = 0, whitewaterVao = 0;
+  GLuint whitewaterBuffer = 0;
   GLuint fluidPositions = 0, fluidNormals = 0, fluidIndices = 0, solidsBuffer = 0, groundBuffer = 0,
          sphereBuffer = 0;
   std::size_t fluidIndexCount = 0, solidsVertexCount = 0, sphereCount = 0;
@@ -239,6 +240,8 @@ PreviewRenderer::Impl::Impl(int w, int h, int samples, RenderLook renderLook)
   gl.glGenVertexArrays(1, &solidsVao);
   gl.glGenVertexArrays(1, &groundVao);
   gl.glGenVertexArrays(1, &sphereVao);
+  gl.glGenVertexArrays(1, &whitewaterVao);
+  gl.glGenBuffers(1, &whitewaterBuffer);
   GLuint buffers[6];
   gl.glGenBuffers(6, buffers);
   fluidPositions = buffers[0];
@@ -275,6 +278,11 @@ PreviewRenderer::Impl::Impl(int w, int h, int samples, RenderLook renderLook)
 
   gl.glBindVertexArray(sphereVao);
   gl.glBindBuffer(GL_ARRAY_BUFFER, sphereBuffer);
+  gl.glEnableVertexAttribArray(0);
+  gl.glVertexAttribPointer(0, 4, GL_FLOAT, GL_FALSE, 0, nullptr);
+  gl.glVertexAttribDivisor(0, 1);
+  gl.glBindVertexArray(whitewaterVao);
+  gl.glBindBuffer(GL_ARRAY_BUFFER, whitewaterBuffer);
   gl.glEnableVertexAttribArray(0);
   gl.glVertexAttribPointer(0, 4, GL_FLOAT, GL_FALSE, 0, nullptr);
   gl.glVertexAttribDivisor(0, 1);
@@ -599,6 +607,7 @@ Image PreviewRenderer::Impl::render(const FrameScene& scene) {
   const bool hasFluid = scene.fluid && !scene.fluid->empty();
   const bool hasSolids = scene.solids && !scene.solids->empty();
   const bool hasSpheres = scene.particles && !scene.particles->position.empty();
+  const bool hasWhitewater = scene.whitewater && !scene.whitewater->position.empty();
 
   // --- content and stage --------------------------------------------------
   float normalSign = 1.0f;
@@ -624,6 +633,13 @@ Image PreviewRenderer::Impl::render(const FrameScene& scene) {
     content = Box3f(content.min() - pad, content.max() + pad);
   } else {
     sphereCount = 0;
+  }
+  if (hasWhitewater) {  // centres only, w unused (the kinds are drawn in ranges)
+    std::vector<float> data(scene.whitewater->position.size() * 4, 0.0f);
+    for (std::size_t i = 0; i < scene.whitewater->position.size(); ++i)
+      for (int k = 0; k < 3; ++k) data[4 * i + std::size_t(k)] = scene.whitewater->position[i][k];
+    gl.glBindBuffer(GL_ARRAY_BUFFER, whitewaterBuffer);
+    gl.glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(data.size() * sizeof(float)), data.data(), GL_STREAM_DRAW);
   }
   Box3f stage = scene.stage.isEmpty() ? content : scene.stage;
   if (stage.isEmpty())
@@ -826,12 +842,33 @@ Image PreviewRenderer::Impl::render(const FrameScene& scene) {
     setInt(sphereProgram, "uOrthographic", 0);
     setFloat(sphereProgram, "uRadius", sphereRadius);
     setFloat(sphereProgram, "uSpeedScale", std::max(scene.particles->speedScale, 1e-6f));
+    setFloat(sphereProgram, "uWhite", 0.0f);
     if (multisamples > 1) {  // shade per sample: the impostors' edges come from discard
       gl.glEnable(GL_SAMPLE_SHADING);
       gl.glMinSampleShading(1.0f);
     }
     drawSpheres();
     if (multisamples > 1) gl.glDisable(GL_SAMPLE_SHADING);
+  }
+  if (hasWhitewater) {  // each kind its own radius: a range of the buffer per draw
+    const WhitewaterSprites& sprites = *scene.whitewater;
+    setCommon(sphereProgram);
+    setVec3(sphereProgram, "uEye", camera.position);
+    setInt(sphereProgram, "uOrthographic", 0);
+    setFloat(sphereProgram, "uSpeedScale", 1.0f);
+    setFloat(sphereProgram, "uWhite", 1.0f);
+    gl.glBindVertexArray(whitewaterVao);
+    gl.glBindBuffer(GL_ARRAY_BUFFER, whitewaterBuffer);
+    std::size_t first = 0;
+    for (std::size_t kind = 0; kind < 3; ++kind) {
+      if (sprites.count[kind] > 0) {
+        setFloat(sphereProgram, "uRadius", sprites.radius[kind]);
+        gl.glVertexAttribPointer(0, 4, GL_FLOAT, GL_FALSE, 0, reinterpret_cast<void*>(first * 4 * sizeof(float)));
+        gl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(sprites.count[kind]));
+      }
+      first += sprites.count[kind];
+    }
+    gl.glVertexAttribPointer(0, 4, GL_FLOAT, GL_FALSE, 0, nullptr);
   }
   mark("spheres");
   if (look.drawGround) {

@@ -9,7 +9,7 @@
 ///  2. opaque pass: procedural sky (zenith/horizon gradient with a sun), a
 ///     ground plane fading into the horizon haze, the solids lit by the
 ///     lights plus a sky/ground hemisphere ambient, particles as ray-cast
-///     sphere impostors coloured by speed;
+///     sphere impostors coloured by speed, whitewater as white ones;
 ///  3. the fluid's nearest back faces into a depth texture;
 ///  4. the fluid's front faces: Schlick's Fresnel (F0 = 0.02) mixes a
 ///     reflection of the sky with the refracted opaque image (screen-space
@@ -30,6 +30,7 @@
 
 #include <Eigen/Core>
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -42,6 +43,14 @@ struct ParticleSpheres {
   std::vector<float> speed;  ///< per particle, m/s; empty: all at rest
   float radius = 0.01f;      ///< sphere radius, m
   float speedScale = 1.0f;   ///< speed at the top (white) of the colour ramp, m/s
+};
+
+/// Whitewater drawn as small white spheres, one radius per kind (foam the
+/// largest, so foam reads denser than spray).
+struct WhitewaterSprites {
+  std::vector<Eigen::Vector3f> position;  ///< by kind: spray, then foam, then bubbles
+  std::array<std::size_t, 3> count{};     ///< per kind (spray, foam, bubble)
+  std::array<float, 3> radius{};          ///< per kind, m
 };
 
 /// Appearance settings (linear RGB).
@@ -62,6 +71,7 @@ struct FrameScene {
   const TriangleMesh* fluid = nullptr;   ///< water surface, world coordinates, z up
   const TriangleMesh* solids = nullptr;  ///< tank, slope, obstacles (groups name them)
   const ParticleSpheres* particles = nullptr;
+  const WhitewaterSprites* whitewater = nullptr;  ///< drawn with the opaque geometry, under the water's refraction
   Camera camera;
   std::vector<Light> lights;  ///< empty: defaultLights(camera)
   /// The stage: places the ground, fits the shadow map and the depth range,

@@ -438,6 +438,7 @@ flat in vec4 vSphere;
 uniform mat4 uViewProjection;
 uniform float uRadius;
 uniform float uSpeedScale;
+uniform float uWhite;                   // 1: whitewater (white), 0: coloured by speed
 out vec4 fragColor;
 
 vec3 speedRamp(float t) {   // deep blue, cyan, pale, white
@@ -460,7 +461,7 @@ void main() {
   vec4 clip = uViewProjection * vec4(hit, 1.0);
   gl_FragDepth = clamp(0.5 * clip.z / clip.w + 0.5, 0.0, 1.0);
   vec3 n = (hit - vSphere.xyz) / uRadius;
-  vec3 albedo = speedRamp(clamp(vSphere.w / uSpeedScale, 0.0, 1.0));
+  vec3 albedo = mix(speedRamp(clamp(vSphere.w / uSpeedScale, 0.0, 1.0)), vec3(0.9), uWhite);
   fragColor = vec4(shadeSurface(hit, n, albedo, 0.6, 60.0), 1.0);
 }
 )";

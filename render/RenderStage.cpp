@@ -1,5 +1,7 @@
 #include "render/RenderStage.h"
 
+#include "whitewater/WhitewaterFile.h"
+
 #include "libsph/Errors.h"
 #include "libsph/io/ParticleCache.h"
 #include "libsph/io/TriangleMesh.h"
@@ -228,7 +230,7 @@ struct FrameInput {
 std::string settingsSignature(const RenderOptions& options, char axis) {
   std::ostringstream text;
   text << "render v1 " << options.width << "x" << options.height << " samples " << options.samples << " mode "
-       << (options.particles ? "particles" : "mesh") << " up " << axis;
+       << (options.particles ? "particles" : "mesh") << " up " << axis << (options.whitewater ? "" : " no-whitewater");
   return text.str();
 }
 
@@ -439,10 +441,11 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
   const PngText text = {{"Software", "Cascade render"}, {"cascade-render", signature}};
 
   auto frameScene = [&](const TriangleMesh* fluid, const ParticleSpheres* spheres, const Camera& view,
-                        const TriangleMesh* frameSolids = nullptr) {
+                        const TriangleMesh* frameSolids = nullptr, const WhitewaterSprites* whitewater = nullptr) {
     FrameScene frameScene;
     frameScene.fluid = fluid;
     frameScene.particles = spheres;
+    frameScene.whitewater = whitewater;
     frameScene.solids = frameSolids ? frameSolids : hasSolids ? &solids : nullptr;
     frameScene.camera = view;
     frameScene.lights = lights;
@@ -465,8 +468,11 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
     // Moving solids: this frame's solids (geometry/solids.NNNN.obj) are an input too.
     const fs::path frameSolids = layout.solids(input.frame);
     const auto solidsTime = fs::is_regular_file(frameSolids, error) ? modified(frameSolids) : fs::file_time_type::min();
+    const fs::path whitewater = layout.whitewater(input.frame);
+    const auto whitewaterTime = options.whitewater && fs::is_regular_file(whitewater, error) ? modified(whitewater)
+                                                                                          : fs::file_time_type::min();
     if (!options.force && fs::is_regular_file(input.path, error) && fs::is_regular_file(target, error) &&
-        modified(target) >= std::max({modified(input.path), inputsTime, solidsTime})) {
+        modified(target) >= std::max({modified(input.path), inputsTime, solidsTime, whitewaterTime})) {
       const PngText stored = readPngText(target);
       const auto found = stored.find("cascade-render");
       if (found != stored.end() && found->second == signature) {
@@ -488,6 +494,7 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
   struct Loaded {
     std::optional<TriangleMesh> fluid;
     std::optional<ParticleSpheres> spheres;
+    std::optional<WhitewaterSprites> whitewater;
     std::optional<TriangleMesh> solids;  ///< the frame's own, when solids move
   };
   auto loadFrameSolids = [&](int frame) -> std::optional<TriangleMesh> {
@@ -495,6 +502,23 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
     const fs::path path = layout.solids(frame);
     if (!fs::is_regular_file(path, missing)) return std::nullopt;
     return readObj(path);
+  };
+  // Whitewater (OUT/whitewater/whitewater.NNNN.vdb), when there is one: white
+  // spheres, foam the largest (0.35 spacings), bubbles 0.25, spray 0.2.
+  auto loadWhitewater = [&](int frame) -> std::optional<WhitewaterSprites> {
+    std::error_code missing;
+    const fs::path path = layout.whitewater(frame);
+    if (!options.whitewater || !fs::is_regular_file(path, missing)) return std::nullopt;
+    const whitewater::WhitewaterFrame diffuse = whitewater::readWhitewaterVdb(path);
+    WhitewaterSprites sprites;
+    sprites.count = diffuse.counts();
+    sprites.position.resize(diffuse.particles.size());
+    std::array<std::size_t, 3> next{0, sprites.count[0], sprites.count[0] + sprites.count[1]};
+    for (std::size_t i = 0; i < diffuse.particles.size(); ++i)
+      sprites.position[next[std::size_t(diffuse.type[i])]++] = diffuse.particles.position[i].cast<float>();
+    const float spacing = float(diffuse.spacing > 0 ? diffuse.spacing : scene.spacing > 0 ? scene.spacing : 0.01);
+    sprites.radius = {0.2f * spacing, 0.35f * spacing, 0.25f * spacing};
+    return sprites;
   };
   auto load = [&](std::size_t index) {
     const FrameInput& input = frames[index];
@@ -505,6 +529,7 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
     if (options.particles) loaded.spheres = loadParticles(input.path, speedScale);
     else loaded.fluid = loadMesh(input.path);
     loaded.solids = loadFrameSolids(input.frame);
+    loaded.whitewater = loadWhitewater(input.frame);
     return loaded;
   };
   std::future<Loaded> next;
@@ -520,7 +545,8 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
       const Loaded loaded = current.get();
       const Image image = renderer().render(frameScene(loaded.fluid ? &*loaded.fluid : nullptr,
                                                      loaded.spheres ? &*loaded.spheres : nullptr, camera,
-                                                     loaded.solids ? &*loaded.solids : nullptr));
+                                                     loaded.solids ? &*loaded.solids : nullptr,
+                                                     loaded.whitewater ? &*loaded.whitewater : nullptr));
       writePng(target, image, false, text);
       report.written.push_back(target);
       report.rendered.push_back(input.frame);

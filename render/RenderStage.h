@@ -7,6 +7,8 @@
 ///  - OUT/mesh/fluid.NNNN.obj, the water surface, or with `particles` the
 ///    caches OUT/particles/particles.NNNN.vdb (or .ply) drawn as spheres of
 ///    radius spacing/2 coloured by speed (white at sqrt(2 g H), H the stage height);
+///  - OUT/whitewater/whitewater.NNNN.vdb, where it exists: spray, foam and
+///    bubbles as small white spheres (foam the largest);
 ///  - OUT/geometry/solids.obj, the solids in world coordinates, one group per
 ///    solid (a group whose name contains "tank" is drawn cut away on the
 ///    camera's side), if present; where solids move, OUT/geometry/solids.NNNN.obj
@@ -45,6 +47,7 @@ struct RenderOptions {
   int height = 720;
   int samples = 4;           ///< anti-aliasing samples per pixel (1, 2, 4; more adds supersampling)
   bool particles = false;    ///< draw particle caches instead of the fluid meshes
+  bool whitewater = true;    ///< draw OUT/whitewater/whitewater.NNNN.vdb where it exists
   FrameRange frames;         ///< unset bounds: as far as files exist
   bool contactSheet = false; ///< also OUT/render/contact_sheet.png of all frames in the range
   int contactSheetColumns = 0;    ///< 0: automatic

@@ -23,6 +23,7 @@ struct OutputLayout {
   std::filesystem::path meshDir() const { return root / "mesh"; }
   std::filesystem::path renderDir() const { return root / "render"; }
   std::filesystem::path geometryDir() const { return root / "geometry"; }
+  std::filesystem::path whitewaterDir() const { return root / "whitewater"; }
   /// The solids at rest (written once) and, when any solid moves, at each frame.
   std::filesystem::path solids() const { return geometryDir() / "solids.obj"; }
 
@@ -35,6 +36,8 @@ struct OutputLayout {
     return meshDir() / ("fluid." + pad(frame) + "." + extension);
   }
   std::filesystem::path solids(int frame) const { return geometryDir() / ("solids." + pad(frame) + ".obj"); }
+  std::filesystem::path whitewater(int frame) const { return whitewaterDir() / ("whitewater." + pad(frame) + ".vdb"); }
+  std::filesystem::path whitewaterPly(int frame) const { return whitewaterDir() / ("whitewater." + pad(frame) + ".ply"); }
   std::filesystem::path render(int frame) const { return renderDir() / ("frame." + pad(frame) + ".png"); }
 
   static std::string pad(int frame);

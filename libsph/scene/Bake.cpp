@@ -94,7 +94,7 @@ std::string sampleProbes(const Scene& scene, const Simulation& simulation) {
   return row + "\n";
 }
 
-ParticleFrame frameOf(const Simulation& simulation, const Scene& scene, int frame) {
+ParticleFrame frameOf(const Simulation& simulation, const Scene& scene, int frame, const std::string& bakeHash) {
   const Particles& particles = simulation.particles();
   ParticleFrame out;
   out.position = particles.position;
@@ -106,6 +106,7 @@ ParticleFrame frameOf(const Simulation& simulation, const Scene& scene, int fram
   out.spacing = Real(scene.fluid.spacing);
   out.metadata["scene"] = scene.name;
   out.metadata["frame"] = std::to_string(frame);
+  out.metadata["bake_hash"] = bakeHash;  // later stages chain their input hashes on it
   return out;
 }
 
@@ -286,7 +287,7 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
       }
       if (result.interrupted) break;
       if (frame >= first) {
-        writeParticleFrame(layout.particles(frame), frameOf(simulation, scene, frame));
+        writeParticleFrame(layout.particles(frame), frameOf(simulation, scene, frame, result.inputHash));
         // Moving solids: the solids at this frame for the renderer (geometry/solids.NNNN.obj).
         if (simulation.hasMovingSolids()) writeObj(layout.solids(frame), simulation.solidsMesh());
         ++result.framesWritten;

@@ -41,14 +41,19 @@ std::string surfaceInputHash(const Scene& scene, const std::string& bakeHash) {
   return chainHash("surface" + surfaceSettingsToJson(scene.surface).dump(), bakeHash);
 }
 
-std::string renderInputHash(const Scene& scene, const std::string& surfaceHash) {
+std::string whitewaterInputHash(const Scene& scene, const std::string& bakeHash) {
+  const json settings = scene.whitewater ? whitewaterSettingsToJson(*scene.whitewater) : json(nullptr);
+  return chainHash("whitewater" + settings.dump(), bakeHash);
+}
+
+std::string renderInputHash(const Scene& scene, const std::string& surfaceHash, const std::string& whitewaterHash) {
   const json view = sceneToJson(scene);
-  return chainHash("render" + view["camera"].dump() + view["lights"].dump(), surfaceHash);
+  return chainHash("render" + view["camera"].dump() + view["lights"].dump() + whitewaterHash, surfaceHash);
 }
 
 std::string sceneInputHash(const Scene& scene) {
   json resolved = sceneToJson(scene);
-  for (const char* laterStages : {"surface", "camera", "lights"}) resolved.erase(laterStages);
+  for (const char* laterStages : {"surface", "whitewater", "camera", "lights"}) resolved.erase(laterStages);
   const std::string text = resolved.dump();
   std::uint64_t hash = fnv1a(text.data(), text.size());
   // The obstacles' mesh files (every frame of a deforming sequence) enter by their bytes.

@@ -25,15 +25,19 @@ std::uint64_t fnv1a(const void* data, std::size_t size, std::uint64_t hash = 0xc
 std::string hexHash(std::uint64_t hash);
 
 /// Hash of everything a bake reads: the resolved scene JSON but for what only
-/// later stages read (surface, camera, lights), and the bytes of every mesh file
+/// later stages read (surface, whitewater, camera, lights), and the bytes of every mesh file
 /// it names.
 std::string sceneInputHash(const Scene& scene);
 /// Hash of what `cascade surface` reads: the bake's inputs (`bakeHash`) and the
 /// scene's surface settings.
 std::string surfaceInputHash(const Scene& scene, const std::string& bakeHash);
+/// Hash of what `cascade whitewater` reads: the bake's inputs and the scene's
+/// whitewater settings.
+std::string whitewaterInputHash(const Scene& scene, const std::string& bakeHash);
 /// Hash of what `cascade render` reads: the surface stage's inputs (`surfaceHash`),
-/// the camera and the lights.
-std::string renderInputHash(const Scene& scene, const std::string& surfaceHash);
+/// the whitewater stage's (`whitewaterHash`, empty without one), the camera and the lights.
+std::string renderInputHash(const Scene& scene, const std::string& surfaceHash,
+                            const std::string& whitewaterHash = "");
 
 /// Hash of the files in a directory whose names match PREFIX.*.EXT (names,
 /// sizes and modification times; cheap, for stage-skip decisions).

@@ -202,6 +202,32 @@ struct SurfaceSettings {
   std::string meshUp = "y";            ///< axes of the mesh file: "y" (for importers) | "z" (scene)
 };
 
+/// The whitewater stage (Ihmsen, Akinci, Akinci & Teschner 2012, "Unified spray,
+/// foam and bubbles for particle-based fluids"): what `cascade whitewater OUT`
+/// does by default (read from OUT/scene.json; its options override). A scene
+/// without a "whitewater" block has no whitewater stage in `cascade run`.
+/// docs/whitewater.md says what each value does and where its default comes from.
+struct WhitewaterSettings {
+  /// "auto": the clamping ranges below are taken from the bake's own statistics
+  /// (percentiles of each potential over its frames); "fixed": as given.
+  std::string limits = "auto";
+  std::array<double, 2> trappedAir{5, 20};      ///< [tau_min, tau_max] of the trapped-air potential, m/s
+  std::array<double, 2> waveCrest{0.5, 2};      ///< [tau_min, tau_max] of the wave-crest potential
+  std::array<double, 2> kineticEnergy{5, 50};   ///< [tau_min, tau_max] of the kinetic energy per mass, J/kg
+  double trappedAirRate = 1000;   ///< k_ta: births per second of a fluid particle at full potentials
+  double waveCrestRate = 1000;    ///< k_wc
+  double rateScale = 1;           ///< multiplies both rates (the artist's knob)
+  std::array<double, 2> lifetime{2, 5};  ///< foam lifetime range, s (each particle draws one)
+  int sprayNeighbors = 6;         ///< fewer fluid neighbours: spray
+  int bubbleNeighbors = 20;       ///< more fluid neighbours: a bubble; between: foam
+  double buoyancy = 2;            ///< k_b: bubble buoyancy, in units of |g|
+  double bubbleDrag = 40;         ///< k_d: pull of a bubble to the fluid velocity, 1/s
+  double airDrag = 0.5;           ///< spray's pull to still air, 1/s (0: ballistic)
+  int substeps = 0;               ///< per frame interval; 0: from the fluid's speed
+  std::int64_t seed = 0;          ///< random stream; the same seed gives the same particles
+  bool ply = false;               ///< also OUT/whitewater/whitewater.NNNN.ply (Blender reads PLY)
+};
+
 struct Light {
   std::string type = "directional";     ///< "directional" | "point"
   Vec3 direction{-0.3, 0.4, -1};        ///< directional: the way the light travels
@@ -229,6 +255,7 @@ struct Scene {
   Boundaries boundaries;
   Output output;
   SurfaceSettings surface;
+  std::optional<WhitewaterSettings> whitewater;  ///< absent: no whitewater stage
   Camera camera;
   std::vector<Light> lights;
   std::vector<Probe> probes;

@@ -542,11 +542,70 @@ json surfaceSettingsToJson(const SurfaceSettings& settings) {
           {"velocity", settings.velocity},     {"adaptivity", settings.adaptivity},  {"mesh_up", settings.meshUp}};
 }
 
+static WhitewaterSettings readWhitewaterSettings(const Context& context, const json& value) {
+  ObjectReader reader(context, value, "whitewater");
+  WhitewaterSettings w;
+  // A [min, max] pair: both >= 0 and min < max (min == max would divide by zero in the clamp).
+  const auto range = [&](const std::string& key, std::array<double, 2> fallback, bool allowEqual) {
+    const std::array<double, 2> pair = reader.vector<2>(key, fallback, Range::NonNegative);
+    if (pair[0] > pair[1] || (!allowEqual && pair[0] == pair[1]))
+      reader.fail(reader.pathOf(key), std::string("min must be ") + (allowEqual ? "<=" : "<") + " max (got [" +
+                                          formatNumber(pair[0]) + ", " + formatNumber(pair[1]) + "])");
+    return pair;
+  };
+  w.limits = reader.choice("limits", w.limits, {"auto", "fixed"});
+  w.trappedAir = range("trapped_air", w.trappedAir, false);
+  w.waveCrest = range("wave_crest", w.waveCrest, false);
+  w.kineticEnergy = range("kinetic_energy", w.kineticEnergy, false);
+  w.trappedAirRate = reader.number("trapped_air_rate", w.trappedAirRate, Range::NonNegative);
+  w.waveCrestRate = reader.number("wave_crest_rate", w.waveCrestRate, Range::NonNegative);
+  w.rateScale = reader.number("rate_scale", w.rateScale, Range::NonNegative);
+  w.lifetime = range("lifetime", w.lifetime, true);
+  w.sprayNeighbors = int(reader.integer("spray_neighbors", w.sprayNeighbors, 0));
+  w.bubbleNeighbors = int(reader.integer("bubble_neighbors", w.bubbleNeighbors, 0));
+  if (w.bubbleNeighbors < w.sprayNeighbors)
+    reader.fail(reader.pathOf("bubble_neighbors"), "must be >= spray_neighbors (got " +
+                                                       std::to_string(w.bubbleNeighbors) + " < " +
+                                                       std::to_string(w.sprayNeighbors) + ")");
+  w.buoyancy = reader.number("buoyancy", w.buoyancy, Range::Any);
+  w.bubbleDrag = reader.number("bubble_drag", w.bubbleDrag, Range::Positive);
+  w.airDrag = reader.number("air_drag", w.airDrag, Range::NonNegative);
+  w.substeps = int(reader.integer("substeps", w.substeps, 0));
+  if (w.substeps > 1000) reader.fail(reader.pathOf("substeps"), "must be <= 1000 (got " + std::to_string(w.substeps) + ")");
+  w.seed = reader.integer("seed", w.seed, 0);
+  w.ply = reader.boolean("ply", w.ply);
+  reader.finish();
+  return w;
+}
+
+WhitewaterSettings parseWhitewaterSettings(const json& value, const std::string& fileLabel) {
+  return readWhitewaterSettings(Context{fileLabel, fs::path()}, value);
+}
+
+json whitewaterSettingsToJson(const WhitewaterSettings& w) {
+  return {{"limits", w.limits},
+          {"trapped_air", w.trappedAir},
+          {"wave_crest", w.waveCrest},
+          {"kinetic_energy", w.kineticEnergy},
+          {"trapped_air_rate", w.trappedAirRate},
+          {"wave_crest_rate", w.waveCrestRate},
+          {"rate_scale", w.rateScale},
+          {"lifetime", w.lifetime},
+          {"spray_neighbors", w.sprayNeighbors},
+          {"bubble_neighbors", w.bubbleNeighbors},
+          {"buoyancy", w.buoyancy},
+          {"bubble_drag", w.bubbleDrag},
+          {"air_drag", w.airDrag},
+          {"substeps", w.substeps},
+          {"seed", w.seed},
+          {"ply", w.ply}};
+}
+
 Scene parseScene(const json& value, const std::string& fileLabel, const fs::path& baseDir) {
   const Context context{fileLabel, baseDir};
   ObjectReader top(context, value, "");
   top.expectOnly({"name", "description", "size", "gravity", "fluid", "solver", "boundaries", "output", "surface",
-                  "camera", "lights", "probes"});
+                  "whitewater", "camera", "lights", "probes"});
   Scene scene;
   scene.name = top.string("name", scene.name);
   if (scene.name.empty() || scene.name.find('/') != std::string::npos)
@@ -657,6 +716,8 @@ Scene parseScene(const json& value, const std::string& fileLabel, const fs::path
   }
 
   if (const json* surfaceJson = top.find("surface")) scene.surface = readSurfaceSettings(context, *surfaceJson);
+  if (const json* whitewaterJson = top.find("whitewater"))
+    scene.whitewater = readWhitewaterSettings(context, *whitewaterJson);
 
   if (const json* cameraJson = top.find("camera")) {
     ObjectReader camera(context, *cameraJson, "camera");
@@ -815,6 +876,7 @@ json sceneToJson(const Scene& scene) {
                       {"end_time", scene.output.endTime},
                       {"probe_rate", scene.output.probeRate}};
   result["surface"] = surfaceSettingsToJson(scene.surface);
+  result["whitewater"] = scene.whitewater ? whitewaterSettingsToJson(*scene.whitewater) : json(nullptr);
   result["camera"] = {{"position", vec(scene.camera.position)},
                       {"target", vec(scene.camera.target)},
                       {"up", vec(scene.camera.up)},
@@ -978,7 +1040,9 @@ Scene loadScene(const fs::path& file, const std::vector<std::string>& overrides)
   }
   // 3. Parse with defaults.
   Scene scene = parseScene(raw, label, baseDir);
-  // 4. Other overrides on the default-filled scene.
+  // 4. Other overrides on the default-filled scene. An object set whole (say
+  //    `whitewater={}`) is filled with its defaults at once, so that a later
+  //    --set can reach its keys (`whitewater.rate_scale=2`).
   bool changed = false;
   json full = sceneToJson(scene);
   for (const std::string& text : overrides) {
@@ -986,6 +1050,7 @@ Scene loadScene(const fs::path& file, const std::vector<std::string>& overrides)
     if (path == "size") continue;
     setJsonPath(full, path, value, "--set", true);
     changed = true;
+    if (!value.empty() && value.front() == '{') full = sceneToJson(parseScene(full, label, baseDir));
   }
   if (changed) scene = parseScene(full, label, baseDir);
   return scene;

@@ -52,6 +52,11 @@ nlohmann::json sceneToJson(const Scene& scene);
 SurfaceSettings parseSurfaceSettings(const nlohmann::json& json, const std::string& fileLabel);
 nlohmann::json surfaceSettingsToJson(const SurfaceSettings& settings);
 
+/// The "whitewater" block ({} takes every default). Throws InputError naming
+/// `fileLabel` and the key.
+WhitewaterSettings parseWhitewaterSettings(const nlohmann::json& json, const std::string& fileLabel);
+nlohmann::json whitewaterSettingsToJson(const WhitewaterSettings& settings);
+
 /// Replaces the value at a dotted path ("fluid.blocks.0.min" or
 /// "fluid.blocks[0].min") of `json` by `value` (parsed as JSON, else a string).
 /// With mustExist, a path not present in `json` is an InputError naming

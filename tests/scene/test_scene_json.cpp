@@ -198,6 +198,44 @@ TEST(SceneJson, SurfaceSettingsAreReadCheckedAndWritten) {
             "scene.json: surface.output: unknown key (did you mean 'outputs'?)");
 }
 
+TEST(SceneJson, WhitewaterBlockIsReadCheckedAndWritten) {
+  const nlohmann::json withBlock = nlohmann::json::parse(
+      R"({"name": "t", "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]},
+          "whitewater": {"rate_scale": 2.5, "lifetime": [1, 4], "limits": "fixed"}})");
+  const scene::Scene scene = scene::parseScene(withBlock, "scene.json", ".");
+  ASSERT_TRUE(scene.whitewater.has_value());
+  EXPECT_EQ(scene.whitewater->rateScale, 2.5);
+  EXPECT_EQ(scene.whitewater->lifetime, (std::array<double, 2>{1, 4}));
+  EXPECT_EQ(scene.whitewater->limits, "fixed");
+  EXPECT_EQ(scene.whitewater->sprayNeighbors, 6);  // the paper's, filled in
+  const nlohmann::json written = scene::sceneToJson(scene);
+  const scene::WhitewaterSettings back = scene::parseWhitewaterSettings(written["whitewater"], "OUT/scene.json");
+  EXPECT_EQ(scene::whitewaterSettingsToJson(back), written["whitewater"]);
+  // No block: no stage, written as null (and read back as absent).
+  const scene::Scene without = scene::parseScene(nlohmann::json::parse(kMinimal), "scene.json", ".");
+  EXPECT_FALSE(without.whitewater.has_value());
+  EXPECT_TRUE(scene::sceneToJson(without)["whitewater"].is_null());
+  const auto bad = [](const std::string& block) {
+    return loadError(R"({"name": "t", "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]}, "whitewater": )" +
+                     block + "}");
+  };
+  EXPECT_EQ(bad(R"({"lifetime": [5, 2]})"), "scene.json: whitewater.lifetime: min must be <= max (got [5, 2])");
+  EXPECT_EQ(bad(R"({"trapped_air": [3, 3]})"), "scene.json: whitewater.trapped_air: min must be < max (got [3, 3])");
+  EXPECT_EQ(bad(R"({"wave_crest_rate": -1})"), "scene.json: whitewater.wave_crest_rate: must be >= 0 (got -1)");
+  EXPECT_EQ(bad(R"({"spray_neighbors": 30})"),
+            "scene.json: whitewater.bubble_neighbors: must be >= spray_neighbors (got 20 < 30)");
+  EXPECT_EQ(bad(R"({"rate_scal": 2})"), "scene.json: whitewater.rate_scal: unknown key (did you mean 'rate_scale'?)");
+}
+
+TEST(SceneJson, AnObjectSetWholeTakesItsDefaultsForLaterSets) {
+  const fs::path file = tempDir("whitewater_set") / "scene.json";
+  writeTextAtomically(file, kMinimal);
+  const scene::Scene scene = scene::loadScene(file, {"whitewater={}", "whitewater.rate_scale=3"});
+  ASSERT_TRUE(scene.whitewater.has_value());
+  EXPECT_EQ(scene.whitewater->rateScale, 3);
+  EXPECT_EQ(scene.whitewater->lifetime, (std::array<double, 2>{2, 5}));
+}
+
 TEST(SceneJson, SetErrors) {
   EXPECT_EQ(loadError(kMinimal, {"fluid.spacingg=0.1"}),
             "--set fluid.spacingg: unknown key 'fluid.spacingg' (did you mean 'fluid.spacing'?)");

@@ -10,6 +10,7 @@ namespace cascade::cli {
 
 void addBakeCommand(CLI::App& app);
 void addSurfaceCommand(CLI::App& app);
+void addWhitewaterCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);
 void addRunCommand(CLI::App& app);
 void addBenchCommand(CLI::App& app);

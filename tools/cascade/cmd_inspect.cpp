@@ -9,6 +9,8 @@
 #include "libsph/io/TriangleMesh.h"
 #include "libsph/io/VdbFile.h"
 
+#include "whitewater/WhitewaterFile.h"
+
 #include <openvdb/openvdb.h>
 #include <openvdb/points/PointDataGrid.h>
 
@@ -86,6 +88,29 @@ void inspectVolume(const fs::path& path, openvdb::GridPtrVecPtr grids) {
   }
 }
 
+void inspectWhitewater(const fs::path& path) {
+  const whitewater::WhitewaterFrame frame = whitewater::readWhitewaterVdb(path);
+  const auto counts = frame.counts();
+  std::printf("file: %s\nkind: whitewater\n", path.string().c_str());
+  std::printf("count: %zu\n", frame.particles.size());
+  for (int type = 0; type < whitewater::kDiffuseTypeCount; ++type)
+    std::printf("%s: %zu\n", whitewater::diffuseTypeName(whitewater::DiffuseType(type)), counts[std::size_t(type)]);
+  std::printf("attributes: P, v, id, type, age\n");
+  if (frame.particles.size() > 0) {
+    Vec3d lo = Vec3d::Constant(1e300), hi = Vec3d::Constant(-1e300);
+    double oldest = 0;
+    for (std::size_t i = 0; i < frame.particles.size(); ++i) {
+      lo = lo.cwiseMin(frame.particles.position[i].cast<double>());
+      hi = hi.cwiseMax(frame.particles.position[i].cast<double>());
+      oldest = std::max(oldest, double(frame.particles.age[i]));
+    }
+    printBounds("bounds: ", lo, hi);
+    std::printf("oldest: %.6g s\n", oldest);
+  }
+  std::printf("time: %.9g s\nnext id: %u\n", frame.time, frame.nextId);
+  std::printf("checksum: %016" PRIx64 "\n", whitewater::whitewaterChecksum(frame));
+}
+
 void inspectVdb(const fs::path& path) {
   openvdb::initialize();
   validateVdbFile(path);  // truncated or foreign files: InputError before OpenVDB reads them
@@ -97,8 +122,9 @@ void inspectVdb(const fs::path& path) {
     for (openvdb::io::File::NameIterator name = file.beginName(); name != file.endName(); ++name) {
       const openvdb::GridBase::Ptr meta = file.readGridMetadata(name.gridName());
       if (meta->type() == openvdb::points::PointDataGrid::gridType()) {
+        const bool whitewater = meta->getName() == "whitewater";
         file.close();
-        return inspectParticles(path);
+        return whitewater ? inspectWhitewater(path) : inspectParticles(path);
       }
     }
     grids = file.getGrids();
@@ -152,7 +178,7 @@ void inspectMesh(const fs::path& path) {
 void addInspectCommand(CLI::App& app) {
   CLI::App* command = app.add_subcommand("inspect", "show what a particle cache, VDB, OBJ or PLY file holds");
   auto file = std::make_shared<std::string>();
-  command->add_option("file", *file, "particles.NNNN.vdb | .ply | surface.NNNN.vdb | fluid.NNNN.obj | .ply")->required();
+  command->add_option("file", *file, "particles.NNNN.vdb | .ply | surface.NNNN.vdb | fluid.NNNN.obj | .ply | whitewater.NNNN.vdb")->required();
   command->callback([file] {
     const fs::path path(*file);
     std::error_code error;

@@ -32,6 +32,8 @@ void addRenderCommand(CLI::App& app) {
   command->add_option("--height", options->render.height, "Image height in pixels")->capture_default_str();
   command->add_flag("--particles", options->render.particles,
                     "Draw the particle caches as spheres coloured by speed (a preview before surfacing)");
+  command->add_flag("--no-whitewater", [options](std::int64_t) { options->render.whitewater = false; },
+                    "Do not draw OUT/whitewater (drawn as white spheres where it exists)");
   command->add_option("--samples", options->render.samples,
                       "Anti-aliasing samples per pixel (1, 2, 4 multisampling; 8 or 16 add 2x2 supersampling)")
       ->capture_default_str();

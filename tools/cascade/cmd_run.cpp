@@ -1,13 +1,15 @@
 // `cascade run SCENE.json [-o OUT] [--set KEY=VALUE]...` (docs/cli.md):
-// bake, surface, render; a stage whose inputs did not change is skipped.
+// bake, whitewater (when the scene has a "whitewater" block), surface, render;
+// a stage whose inputs did not change is skipped.
 //
 // Input hashes (kept in OUT/manifest.json, Manifest.h): the bake's covers the
-// resolved scene but its surface block, camera and lights, and its mesh files;
-// the surface stage's chains the bake's with the surface block, the render
-// stage's chains the surface stage's with the camera and lights. So a new
-// camera re-renders, new surface settings re-surface, and neither re-bakes.
-// The surface and render stages run as `cascade surface OUT` and
-// `cascade render OUT` child processes (stages talk through files only);
+// resolved scene but its surface and whitewater blocks, camera and lights, and
+// its mesh files; the whitewater and surface stages' each chain the bake's with
+// their block, the render stage's chains the surface stage's with the
+// whitewater stage's, the camera and lights. So a new camera re-renders, new
+// surface or whitewater settings redo that stage (and the render), and none
+// re-bakes. The later stages run as `cascade whitewater|surface|render OUT`
+// child processes (stages talk through files only);
 // when a stage's input changed, its old outputs are removed first so that no
 // stale frame survives.
 #include "Commands.h"
@@ -117,17 +119,18 @@ void runStage(const std::string& stage, const fs::path& outDir, const std::strin
 } // namespace
 
 void addRunCommand(CLI::App& app) {
-  CLI::App* command = app.add_subcommand("run", "bake, surface and render a scene, skipping stages whose inputs did not change");
+  CLI::App* command = app.add_subcommand("run", "bake, whitewater (if the scene has it), surface and render a scene, skipping stages whose inputs did not change");
   struct Args {
     std::string scene, out;
     std::vector<std::string> sets;
-    bool noRender = false, noSurface = false, ignoreMemory = false;
+    bool noRender = false, noSurface = false, noWhitewater = false, ignoreMemory = false;
   };
   auto args = std::make_shared<Args>();
   command->add_option("scene", args->scene, "scene file (JSON)")->required();
   command->add_option("-o,--out", args->out, "output folder (default out/<scene name>)");
   command->add_option("--set", args->sets, "override a scene value: KEY=VALUE (dotted path)")->take_all();
   command->add_flag("--no-surface", args->noSurface, "stop after the bake");
+  command->add_flag("--no-whitewater", args->noWhitewater, "skip the whitewater stage of a scene that has one");
   command->add_flag("--no-render", args->noRender, "stop after surfacing");
   command->add_flag("--ignore-memory", args->ignoreMemory,
                     "bake even if the memory estimate exceeds what this machine has available");
@@ -148,9 +151,17 @@ void addRunCommand(CLI::App& app) {
       runBake(scene, outDir, "", false, args->ignoreMemory);
     }
     if (!args->noSurface) {
-      // The surface and render stages read OUT/scene.json: it carries this scene's
-      // surface settings, camera and lights even when the bake was skipped.
+      // The later stages read OUT/scene.json: it carries this scene's surface and
+      // whitewater settings, camera and lights even when the bake was skipped.
       writeTextAtomically(layout.scene(), scene::sceneToJson(scene).dump(2) + "\n");
+      std::string whitewaterHash;
+      if (scene.whitewater && !args->noWhitewater) {
+        whitewaterHash = scene::whitewaterInputHash(scene, bakeHash);
+        std::vector<FrameFiles> outputs{{layout.whitewaterDir(), "whitewater", "vdb"}};
+        if (scene.whitewater->ply) outputs.push_back({layout.whitewaterDir(), "whitewater", "ply"});
+        runStage("whitewater", outDir, scene.name, whitewaterHash, frameCount, outputs,
+                 {{layout.whitewaterDir(), "whitewater", "vdb"}, {layout.whitewaterDir(), "whitewater", "ply"}});
+      }
       const std::string surfaceHash = scene::surfaceInputHash(scene, bakeHash);
       const scene::SurfaceSettings& surface = scene.surface;
       std::vector<FrameFiles> surfaceOutputs;
@@ -164,8 +175,8 @@ void addRunCommand(CLI::App& app) {
                      "`cascade render OUT --particles` draws the particles)\n";
       } else if (!args->noRender) {
         const FrameFiles frames{layout.renderDir(), "frame", "png"};
-        runStage("render", outDir, scene.name, scene::renderInputHash(scene, surfaceHash), frameCount, {frames},
-                 {frames});
+        runStage("render", outDir, scene.name, scene::renderInputHash(scene, surfaceHash, whitewaterHash), frameCount,
+                 {frames}, {frames});
       }
     }
     std::fprintf(stderr, "run: %s done in %.1f s -> %s\n", scene.name.c_str(), secondsSince(start),

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   cli::addBakeCommand(app);
   cli::addSurfaceCommand(app);
+  cli::addWhitewaterCommand(app);
   cli::addRenderCommand(app);
   cli::addRunCommand(app);
   cli::addBenchCommand(app);

@@ -1,0 +1,201 @@
+// One frame interval of whitewater: births, classification, advection, removal.
+#include "whitewater/WhitewaterSolver.h"
+
+#include "whitewater/DiffuseAdvection.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace cascade::whitewater {
+
+namespace {
+
+/// SplitMix64's finaliser: a well-mixed 64-bit hash of a 64-bit key.
+inline std::uint64_t mix64(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ull;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  return x ^ (x >> 31);
+}
+
+/// Uniform numbers in [0, 1) from a counter: the k-th draw of a key is mix64(key + k).
+struct Draws {
+  std::uint64_t key;
+  std::uint64_t next = 0;
+  double uniform() { return double(mix64(key + next++) >> 11) * 0x1.0p-53; }
+};
+
+std::uint64_t drawKey(std::uint64_t seed, std::uint64_t stream, std::uint64_t a, std::uint64_t b) {
+  return mix64(seed ^ mix64(stream ^ mix64(a ^ mix64(b))));
+}
+
+constexpr std::uint64_t kBirthStream = 0xb1e7, kLifetimeStream = 0x11fe;
+
+inline Real weight(Real r, Real h) { return r < h ? Real(1) - r / h : Real(0); }
+
+} // namespace
+
+WhitewaterSolver::WhitewaterSolver(const scene::WhitewaterSettings& settings, const Vec3r& gravity, double spacing,
+                                   const RemovalBox& domain)
+    : mSettings(settings), mGravity(gravity), mH(Real(2 * spacing)), mRadius(Real(0.5 * spacing)), mDomain(domain),
+      mSeed(mix64(std::uint64_t(settings.seed))) {}
+
+double WhitewaterSolver::lifetime(std::uint32_t id) const {
+  Draws draws{drawKey(mSeed, kLifetimeStream, id, 0)};
+  return mSettings.lifetime[0] + (mSettings.lifetime[1] - mSettings.lifetime[0]) * draws.uniform();
+}
+
+int WhitewaterSolver::substepsFor(const FluidInterval& fluid) const {
+  if (mSettings.substeps > 0) return mSettings.substeps;
+  std::vector<Vec3r> x, v;
+  double fastest = 0;
+  for (double t : {fluid.t0(), fluid.t1()}) {
+    fluid.at(t, x, v);
+    for (const Vec3r& velocity : v) fastest = std::max(fastest, double(velocity.squaredNorm()));
+  }
+  const double steps = std::ceil(std::sqrt(fastest) * (fluid.t1() - fluid.t0()) / double(mH));
+  return int(std::clamp(steps, 1.0, 64.0));
+}
+
+void WhitewaterSolver::buildFluid(const std::vector<Vec3r>& fluidPositions) {
+  if (&fluidPositions != &mFluidX) mFluidX = fluidPositions;
+  mGrid.build(mFluidX.data(), mFluidX.size(), mH);
+}
+
+void WhitewaterSolver::queryFluid(const DiffuseParticles& particles) {
+  if (mFluidX.empty()) {
+    mLists.offsets.assign(particles.size() + 1, 0);
+    mLists.indices.clear();
+    return;
+  }
+  mGrid.query(particles.position.data(), particles.size(), nullptr, false, mLists);
+}
+
+std::vector<DiffuseType> WhitewaterSolver::classify(const DiffuseParticles& particles,
+                                                    const std::vector<Vec3r>& fluidPositions) {
+  buildFluid(fluidPositions);
+  queryFluid(particles);
+  std::vector<DiffuseType> types(particles.size());
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    types[i] = classifyDiffuse(mLists.count(i), mSettings.sprayNeighbors, mSettings.bubbleNeighbors);
+  return types;
+}
+
+IntervalStats WhitewaterSolver::advance(const FluidInterval& fluid, const std::vector<float>& rates, int frame,
+                                        DiffuseParticles& particles, std::uint32_t& nextId) {
+  IntervalStats stats;
+  stats.substeps = substepsFor(fluid);
+  const double interval = fluid.t1() - fluid.t0();
+  const double dt = interval / stats.substeps;
+  // Fluid particles that give birth at all this interval, in fluid order.
+  std::vector<std::uint32_t> sources;
+  for (std::size_t i = 0; i < rates.size(); ++i)
+    if (rates[i] > 0) sources.push_back(std::uint32_t(i));
+  const std::vector<std::uint32_t>& fluidIds = fluid.ids();
+  const Vec3r buoyancy = Real(-mSettings.buoyancy) * mGravity;
+  const Vec3r still = Vec3r::Zero();
+
+  std::vector<std::uint8_t> keep;
+  std::vector<std::uint32_t> births(sources.size() + 1);
+  for (int step = 0; step < stats.substeps; ++step) {
+    const double t = fluid.t0() + step * dt;
+    fluid.at(t, mFluidX, mFluidV);
+    buildFluid(mFluidX);
+    queryFluid(particles);
+
+    // Classify and advect every particle by its kind, then age it.
+    const std::size_t count = particles.size();
+    keep.assign(count, 1);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 1024), [&](const auto& range) {
+      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+        Vec3r& x = particles.position[i];
+        Vec3r& v = particles.velocity[i];
+        const DiffuseType type =
+            classifyDiffuse(mLists.count(i), mSettings.sprayNeighbors, mSettings.bubbleNeighbors);
+        if (type == DiffuseType::Spray) {
+          relaxMotion(x, v, still, mGravity, mSettings.airDrag, dt);
+        } else {
+          // v_f: the fluid velocity around the particle, W-weighted (Ihmsen 2012 eq. 10).
+          Vec3r sum = Vec3r::Zero();
+          Real weights = 0;
+          for (const std::uint32_t* j = mLists.begin(i); j != mLists.end(i); ++j) {
+            const Real w = weight((x - mFluidX[*j]).norm(), mH);
+            sum += w * mFluidV[*j];
+            weights += w;
+          }
+          const Vec3r fluidVelocity = weights > 0 ? Vec3r(sum / weights) : v;
+          if (type == DiffuseType::Foam) {
+            x += Real(dt) * fluidVelocity;
+            v = fluidVelocity;
+          } else {
+            relaxMotion(x, v, fluidVelocity, buoyancy, mSettings.bubbleDrag, dt);
+          }
+        }
+        particles.age[i] += float(dt);
+        if (type == DiffuseType::Foam && particles.age[i] > lifetime(particles.id[i])) keep[i] = 2;  // dissolved
+        else if (!mDomain.contains(x)) keep[i] = 3;                                                 // left
+      }
+    });
+    for (std::uint8_t& k : keep) {
+      if (k == 2) ++stats.dissolved;
+      if (k == 3) ++stats.left;
+      k = k == 1;
+    }
+    particles.keepWhere(keep);
+
+    // Births along each source's path over [t, t + dt] (eqs. 7-9).
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sources.size(), 4096), [&](const auto& range) {
+      for (std::size_t s = range.begin(); s != range.end(); ++s) {
+        const std::uint32_t i = sources[s];
+        const double expected = double(rates[i]) * dt;
+        Draws draws{drawKey(mSeed, kBirthStream, fluidIds[i], std::uint64_t(frame) * 4096 + std::uint64_t(step))};
+        const double whole = std::floor(expected);
+        births[s] = std::uint32_t(whole) + (draws.uniform() < expected - whole ? 1u : 0u);
+      }
+    });
+    births[sources.size()] = 0;
+    std::exclusive_scan(births.begin(), births.end(), births.begin(), std::uint32_t(0));
+    const std::uint32_t newCount = births[sources.size()];
+    const std::size_t first = particles.size();
+    particles.position.resize(first + newCount);
+    particles.velocity.resize(first + newCount);
+    particles.id.resize(first + newCount);
+    particles.age.resize(first + newCount, 0.0f);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sources.size(), 1024), [&](const auto& range) {
+      for (std::size_t s = range.begin(); s != range.end(); ++s) {
+        const std::uint32_t made = births[s + 1] - births[s];
+        if (made == 0) continue;
+        const std::uint32_t i = sources[s];
+        const Vec3r& x = mFluidX[i];
+        const Vec3r& v = mFluidV[i];
+        const Real speed = v.norm();
+        const Vec3r along = speed > 0 ? Vec3r(v / speed) : Vec3r(0, 0, 1);
+        // e1, e2: an orthonormal pair across the path.
+        const Vec3r helper = std::abs(along.x()) < Real(0.9) ? Vec3r(1, 0, 0) : Vec3r(0, 1, 0);
+        const Vec3r e1 = along.cross(helper).normalized();
+        const Vec3r e2 = along.cross(e1);
+        Draws draws{drawKey(mSeed, kBirthStream, fluidIds[i], std::uint64_t(frame) * 4096 + std::uint64_t(step))};
+        draws.uniform();  // the count's draw
+        for (std::uint32_t k = 0; k < made; ++k) {
+          const std::size_t out = first + births[s] + k;
+          const Real r = mRadius * Real(std::sqrt(draws.uniform()));
+          const Real theta = Real(2 * M_PI * draws.uniform());
+          const Real along_ = Real(draws.uniform()) * speed * Real(dt);
+          particles.position[out] = x + r * std::cos(theta) * e1 + r * std::sin(theta) * e2 + along_ * along;
+          particles.velocity[out] = v;
+          particles.id[out] = nextId + births[s] + k;
+          particles.age[out] = 0.0f;
+        }
+      }
+    });
+    nextId += newCount;
+    stats.born += newCount;
+  }
+  return stats;
+}
+
+} // namespace cascade::whitewater
