@@ -8,7 +8,9 @@
 #include "surfacing/LevelSetMethods.h"
 #include "surfacing/MeshCleanup.h"
 #include "surfacing/ParticleGrid.h"
+#include "surfacing/FoamDensity.h"
 #include "surfacing/detail/Profile.h"
+#include "whitewater/WhitewaterFile.h"
 
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
@@ -20,6 +22,7 @@
 #include <exception>
 #include <cmath>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -91,7 +94,8 @@ void initializeOpenVdb() {
 }
 
 void writeSurfaceVdb(const fs::path& path, openvdb::FloatGrid& levelSet, openvdb::Vec3SGrid* velocity,
-                     bool withDensity, const SurfaceOptions& options, double spacing, bool yUp) {
+                     bool withDensity, openvdb::FloatGrid* foam, const SurfaceOptions& options, double spacing,
+                     bool yUp) {
   openvdb::GridPtrVec grids;
   openvdb::FloatGrid::Ptr surface = levelSet.copy();  // shares the tree; own metadata and transform
   surface->setName("surface");
@@ -130,6 +134,10 @@ void writeSurfaceVdb(const fs::path& path, openvdb::FloatGrid& levelSet, openvdb
     density->setGridClass(openvdb::GRID_FOG_VOLUME);
     grids.push_back(density);
   }
+  if (foam) {
+    foam->transform().postMult(rotation);
+    grids.push_back(foam->copy());
+  }
   writeFileAtomically(path, [&](const fs::path& temp) {
     openvdb::io::File file(temp.string());
     // Active-mask compression (inactive values are +-background); Blosc only on request.
@@ -149,7 +157,7 @@ SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spaci
 
 SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, const std::vector<Vec3r>& velocities,
                                double spacing, const SurfaceOptions& options, const fs::path& vdbPath,
-                               const fs::path& meshPath) {
+                               const fs::path& meshPath, const std::vector<Vec3r>* foam) {
   initializeOpenVdb();
   SurfaceResult result;
   if (options.particleSpacing > 0) spacing = options.particleSpacing;
@@ -208,7 +216,10 @@ SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, const std::v
     vdbWriter = std::thread([&] {
       const auto writeStart = Clock::now();
       try {
-        writeSurfaceVdb(vdbPath, *levelSet, velocity.get(), options.writeDensity, options, spacing, options.vdbYUp);
+        openvdb::FloatGrid::Ptr foamGrid;
+        if (foam) foamGrid = surfacing::foamDensityGrid(*foam, spacing, voxelSize);
+        writeSurfaceVdb(vdbPath, *levelSet, velocity.get(), options.writeDensity, foamGrid.get(), options, spacing,
+                        options.vdbYUp);
       } catch (...) {
         vdbFailure = std::current_exception();
       }
@@ -294,9 +305,19 @@ std::vector<SurfaceFrameReport> surfaceFrames(const OutputLayout& layout, const 
           if (!fs::exists(input) && fs::exists(layout.particlesPly(frame))) input = layout.particlesPly(frame);
           const ParticleFrame particles = readParticleFrame(input);  // InputError names the file
           report.particles = particles.size();
+          std::optional<std::vector<Vec3r>> foam;
+          if (options.foamDensity && options.writeVdb) {
+            const fs::path whitewaterFile = layout.whitewater(frame);
+            if (!fs::is_regular_file(whitewaterFile))
+              throw InputError(whitewaterFile.string() + ": no such file (the foam grid needs `cascade whitewater` first)");
+            const whitewater::WhitewaterFrame diffuse = whitewater::readWhitewaterVdb(whitewaterFile);
+            foam.emplace();
+            for (std::size_t i = 0; i < diffuse.particles.size(); ++i)
+              if (diffuse.type[i] == whitewater::DiffuseType::Foam) foam->push_back(diffuse.particles.position[i]);
+          }
           SurfaceResult result = surfaceParticles(particles.position, particles.velocity, particles.spacing, options,
                                                   options.writeVdb ? vdbOut : fs::path(),
-                                                  options.writeMesh ? meshOut : fs::path());
+                                                  options.writeMesh ? meshOut : fs::path(), foam ? &*foam : nullptr);
           report.timings = result.timings;
           report.triangles = result.mesh.triangles.size();
         }

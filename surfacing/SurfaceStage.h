@@ -6,7 +6,7 @@
 /// turned into OUT/surface/surface.NNNN.vdb (a level set grid named "surface",
 /// class GRID_LEVEL_SET, voxel size in its transform; a vector grid "v", the
 /// fluid velocity over the band, when the particles carry velocities; optionally
-/// a "density" fog grid) and OUT/mesh/fluid.NNNN.obj or .ply (triangles with
+/// a "density" fog grid, and a "foam" fog grid from OUT/whitewater) and OUT/mesh/fluid.NNNN.obj or .ply (triangles with
 /// outward per-vertex normals; the PLY also with per-vertex velocities).
 /// Pipeline per frame:
 ///   1. rasterize the particles into a narrow-band level set with one of the
@@ -98,6 +98,9 @@ struct SurfaceOptions {
   int halfWidth = 3;
   bool writeVdb = true;      ///< OUT/surface/surface.NNNN.vdb ("surface" grid)
   bool writeDensity = false; ///< also a "density" fog grid in that file
+  /// Also a "foam" fog grid in that file, from OUT/whitewater (FoamDensity.h):
+  /// foam particles per spacing^3. surfaceFrames() reads the frame's whitewater file.
+  bool foamDensity = false;
   bool writeMesh = true;     ///< OUT/mesh/fluid.NNNN.obj or .ply
   MeshFormat meshFormat = MeshFormat::Obj;
   /// The "v" grid and per-vertex mesh velocities, when the particles have velocities.
@@ -144,13 +147,14 @@ struct SurfaceResult {
 
 /// Surfaces particle positions (and, if not empty and options.velocity, their
 /// velocities) in memory and, if `vdbPath` is not empty, writes the level set (and
-/// "v", density) there atomically; if `meshPath` is not empty, also the mesh
-/// (writeSurfaceMesh with options.meshYUp, the format by the path's extension).
-/// `spacing` 0 means estimate it.
+/// "v", density, and with `foam` the "foam" grid of those foam particles) there
+/// atomically; if `meshPath` is not empty, also the mesh (writeSurfaceMesh with
+/// options.meshYUp, the format by the path's extension). `spacing` 0 means estimate it.
 SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, const std::vector<Vec3r>& velocities,
                                double spacing, const SurfaceOptions& options,
                                const std::filesystem::path& vdbPath = {},
-                               const std::filesystem::path& meshPath = {});
+                               const std::filesystem::path& meshPath = {},
+                               const std::vector<Vec3r>* foam = nullptr);
 /// The same without velocities.
 SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spacing,
                                const SurfaceOptions& options,

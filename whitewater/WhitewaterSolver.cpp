@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <stdexcept>
 
 namespace cascade::whitewater {
 
@@ -34,6 +35,8 @@ std::uint64_t drawKey(std::uint64_t seed, std::uint64_t stream, std::uint64_t a,
 }
 
 constexpr std::uint64_t kBirthStream = 0xb1e7, kLifetimeStream = 0x11fe;
+/// Diffuse particles per neighbour query: bounds the lists' memory.
+constexpr std::size_t kChunk = 1 << 16;
 
 inline Real weight(Real r, Real h) { return r < h ? Real(1) - r / h : Real(0); }
 
@@ -66,22 +69,25 @@ void WhitewaterSolver::buildFluid(const std::vector<Vec3r>& fluidPositions) {
   mGrid.build(mFluidX.data(), mFluidX.size(), mH);
 }
 
-void WhitewaterSolver::queryFluid(const DiffuseParticles& particles) {
+void WhitewaterSolver::queryFluid(const Vec3r* positions, std::size_t count) {
   if (mFluidX.empty()) {
-    mLists.offsets.assign(particles.size() + 1, 0);
+    mLists.offsets.assign(count + 1, 0);
     mLists.indices.clear();
     return;
   }
-  mGrid.query(particles.position.data(), particles.size(), nullptr, false, mLists);
+  mGrid.query(positions, count, nullptr, false, mLists);
 }
 
 std::vector<DiffuseType> WhitewaterSolver::classify(const DiffuseParticles& particles,
                                                     const std::vector<Vec3r>& fluidPositions) {
   buildFluid(fluidPositions);
-  queryFluid(particles);
   std::vector<DiffuseType> types(particles.size());
-  for (std::size_t i = 0; i < particles.size(); ++i)
-    types[i] = classifyDiffuse(mLists.count(i), mSettings.sprayNeighbors, mSettings.bubbleNeighbors);
+  for (std::size_t chunk = 0; chunk < particles.size(); chunk += kChunk) {
+    const std::size_t chunkSize = std::min(kChunk, particles.size() - chunk);
+    queryFluid(particles.position.data() + chunk, chunkSize);
+    for (std::size_t q = 0; q < chunkSize; ++q)
+      types[chunk + q] = classifyDiffuse(mLists.count(q), mSettings.sprayNeighbors, mSettings.bubbleNeighbors);
+  }
   return types;
 }
 
@@ -105,41 +111,46 @@ IntervalStats WhitewaterSolver::advance(const FluidInterval& fluid, const std::v
     const double t = fluid.t0() + step * dt;
     fluid.at(t, mFluidX, mFluidV);
     buildFluid(mFluidX);
-    queryFluid(particles);
 
-    // Classify and advect every particle by its kind, then age it.
+    // Classify and advect every particle by its kind, then age it; in chunks, so
+    // the neighbour lists stay small whatever the particle count.
     const std::size_t count = particles.size();
     keep.assign(count, 1);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 1024), [&](const auto& range) {
-      for (std::size_t i = range.begin(); i != range.end(); ++i) {
-        Vec3r& x = particles.position[i];
-        Vec3r& v = particles.velocity[i];
-        const DiffuseType type =
-            classifyDiffuse(mLists.count(i), mSettings.sprayNeighbors, mSettings.bubbleNeighbors);
-        if (type == DiffuseType::Spray) {
-          relaxMotion(x, v, still, mGravity, mSettings.airDrag, dt);
-        } else {
-          // v_f: the fluid velocity around the particle, W-weighted (Ihmsen 2012 eq. 10).
-          Vec3r sum = Vec3r::Zero();
-          Real weights = 0;
-          for (const std::uint32_t* j = mLists.begin(i); j != mLists.end(i); ++j) {
-            const Real w = weight((x - mFluidX[*j]).norm(), mH);
-            sum += w * mFluidV[*j];
-            weights += w;
-          }
-          const Vec3r fluidVelocity = weights > 0 ? Vec3r(sum / weights) : v;
-          if (type == DiffuseType::Foam) {
-            x += Real(dt) * fluidVelocity;
-            v = fluidVelocity;
+    for (std::size_t chunk = 0; chunk < count; chunk += kChunk) {
+      const std::size_t chunkSize = std::min(kChunk, count - chunk);
+      queryFluid(particles.position.data() + chunk, chunkSize);
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunkSize, 1024), [&](const auto& range) {
+        for (std::size_t q = range.begin(); q != range.end(); ++q) {
+          const std::size_t i = chunk + q;
+          Vec3r& x = particles.position[i];
+          Vec3r& v = particles.velocity[i];
+          const DiffuseType type =
+              classifyDiffuse(mLists.count(q), mSettings.sprayNeighbors, mSettings.bubbleNeighbors);
+          if (type == DiffuseType::Spray) {
+            relaxMotion(x, v, still, mGravity, mSettings.airDrag, dt);
           } else {
-            relaxMotion(x, v, fluidVelocity, buoyancy, mSettings.bubbleDrag, dt);
+            // v_f: the fluid velocity around the particle, W-weighted (Ihmsen 2012 eq. 10).
+            Vec3r sum = Vec3r::Zero();
+            Real weights = 0;
+            for (const std::uint32_t* j = mLists.begin(q); j != mLists.end(q); ++j) {
+              const Real w = weight((x - mFluidX[*j]).norm(), mH);
+              sum += w * mFluidV[*j];
+              weights += w;
+            }
+            const Vec3r fluidVelocity = weights > 0 ? Vec3r(sum / weights) : v;
+            if (type == DiffuseType::Foam) {
+              x += Real(dt) * fluidVelocity;
+              v = fluidVelocity;
+            } else {
+              relaxMotion(x, v, fluidVelocity, buoyancy, mSettings.bubbleDrag, dt);
+            }
           }
+          particles.age[i] += float(dt);
+          if (type == DiffuseType::Foam && particles.age[i] > lifetime(particles.id[i])) keep[i] = 2;  // dissolved
+          else if (!mDomain.contains(x)) keep[i] = 3;                                                 // left
         }
-        particles.age[i] += float(dt);
-        if (type == DiffuseType::Foam && particles.age[i] > lifetime(particles.id[i])) keep[i] = 2;  // dissolved
-        else if (!mDomain.contains(x)) keep[i] = 3;                                                 // left
-      }
-    });
+      });
+    }
     for (std::uint8_t& k : keep) {
       if (k == 2) ++stats.dissolved;
       if (k == 3) ++stats.left;
@@ -160,6 +171,8 @@ IntervalStats WhitewaterSolver::advance(const FluidInterval& fluid, const std::v
     births[sources.size()] = 0;
     std::exclusive_scan(births.begin(), births.end(), births.begin(), std::uint32_t(0));
     const std::uint32_t newCount = births[sources.size()];
+    if (std::uint64_t(nextId) + newCount > std::uint64_t(INT32_MAX))
+      throw std::runtime_error("whitewater: more than 2^31 particles born in one run (lower rate_scale)");
     const std::size_t first = particles.size();
     particles.position.resize(first + newCount);
     particles.velocity.resize(first + newCount);

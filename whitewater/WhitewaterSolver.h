@@ -73,7 +73,7 @@ public:
 
 private:
   void buildFluid(const std::vector<Vec3r>& fluidPositions);
-  void queryFluid(const DiffuseParticles& particles);
+  void queryFluid(const Vec3r* positions, std::size_t count);
 
   scene::WhitewaterSettings mSettings;
   Vec3r mGravity;

@@ -200,6 +200,7 @@ struct SurfaceSettings {
   bool velocity = true;                ///< the "v" grid and per-vertex mesh velocities
   double adaptivity = 0;               ///< mesh adaptivity in [0, 1]
   std::string meshUp = "y";            ///< axes of the mesh file: "y" (for importers) | "z" (scene)
+  bool foamDensity = false;            ///< a "foam" fog grid in the VDB, from the whitewater stage
 };
 
 /// The whitewater stage (Ihmsen, Akinci, Akinci & Teschner 2012, "Unified spray,

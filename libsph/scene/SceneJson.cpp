@@ -529,6 +529,7 @@ static SurfaceSettings readSurfaceSettings(const Context& context, const json& v
   settings.velocity = surface.boolean("velocity", settings.velocity);
   settings.adaptivity = surface.numberIn("adaptivity", settings.adaptivity, 0, 1);
   settings.meshUp = surface.choice("mesh_up", settings.meshUp, {"y", "z"});
+  settings.foamDensity = surface.boolean("foam_density", settings.foamDensity);
   surface.finish();
   return settings;
 }
@@ -539,7 +540,8 @@ SurfaceSettings parseSurfaceSettings(const json& value, const std::string& fileL
 
 json surfaceSettingsToJson(const SurfaceSettings& settings) {
   return {{"method", settings.method},         {"mesh_format", settings.meshFormat}, {"outputs", settings.outputs},
-          {"velocity", settings.velocity},     {"adaptivity", settings.adaptivity},  {"mesh_up", settings.meshUp}};
+          {"velocity", settings.velocity},     {"adaptivity", settings.adaptivity},  {"mesh_up", settings.meshUp},
+          {"foam_density", settings.foamDensity}};
 }
 
 static WhitewaterSettings readWhitewaterSettings(const Context& context, const json& value) {

@@ -8,6 +8,7 @@
 #include "libsph/io/OutputLayout.h"
 #include "libsph/search/UniformGridSearch.h"
 #include "render/Image.h"
+#include "surfacing/FoamDensity.h"
 #include "whitewater/FluidInterval.h"
 #include "whitewater/Potentials.h"
 #include "whitewater/WhitewaterFile.h"
@@ -260,7 +261,7 @@ TEST(WhitewaterStage, InspectCountsEachKind) {
 TEST(WhitewaterStage, RunDoesItOnceAndRedoesOnlyItWhenItsSettingsChange) {
   const fs::path out = scratch() / "run";
   const std::vector<std::string> base{"run", kScenes + "/tower.json", "--set", "size=seed", "--set", "output.end_time=0.5",
-                                      "--set", "whitewater={}", "--no-render", "-o", out.string()};
+                                      "--no-render", "-o", out.string()};
   ASSERT_EQ(test::run(base, scratch() / "run1.log"), 0) << test::readLog(scratch() / "run1.log");
   const int frames = frameCount(out);
   ASSERT_EQ(frames, 15);
@@ -299,4 +300,49 @@ TEST(WhitewaterStage, PreviewsDrawWhitewaterWhite) {
   const std::size_t without = whitePixels({"--no-whitewater"}), with = whitePixels({});
   std::printf("near-white pixels: %zu without whitewater, %zu with\n", without, with);
   EXPECT_GT(with, without + 200);
+}
+
+TEST(FoamDensity, AUniformCloudReadsItsParticlesPerSpacingCubed) {
+  // Foam at half the spacing: 8 particles per spacing^3 in the middle of the cloud.
+  const double s = 0.01;
+  const ParticleFrame cloud = test::latticeFluid({0, 0, 0}, {0.1f, 0.1f, 0.1f}, Real(s / 2), {0, 0, 0});
+  const openvdb::FloatGrid::Ptr grid = surfacing::foamDensityGrid(cloud.position, s, s / 2);
+  EXPECT_EQ(grid->getGridClass(), openvdb::GRID_FOG_VOLUME);
+  const auto accessor = grid->getConstAccessor();
+  const openvdb::Coord middle(10, 10, 10);  // (0.05, 0.05, 0.05)
+  EXPECT_NEAR(accessor.getValue(middle), 8.0, 0.4);
+  EXPECT_TRUE(accessor.isValueOn(middle));
+  EXPECT_EQ(accessor.getValue(openvdb::Coord(40, 10, 10)), 0.0f);  // 0.2 m: beyond the cloud and R
+  EXPECT_FALSE(accessor.isValueOn(openvdb::Coord(40, 10, 10)));
+}
+
+TEST(WhitewaterStage, SurfaceWritesAFoamGridFromTheWhitewaterFiles) {
+  const fs::path out = copyOf(towerBake(), "foam");
+  const int frame = frameCount(out) - 5;
+  const std::string frames = std::to_string(frame) + "-" + std::to_string(frame);
+  const fs::path log = scratch() / "foam.log";
+  // Asked for before the whitewater exists: one line naming the missing file.
+  EXPECT_EQ(test::run({"surface", out.string(), "--frames", frames, "--foam-density", "--no-mesh"}, log), 2)
+      << test::readLog(log);
+  EXPECT_NE(test::readLog(log).find("whitewater." + OutputLayout::pad(frame) + ".vdb: no such file"), std::string::npos)
+      << test::readLog(log);
+  ASSERT_EQ(test::run({"whitewater", out.string()}, log), 0) << test::readLog(log);
+  ASSERT_EQ(test::run({"surface", out.string(), "--frames", frames, "--foam-density", "--no-mesh", "--force"}, log), 0)
+      << test::readLog(log);
+  openvdb::initialize();
+  openvdb::io::File file(OutputLayout(out).surface(frame).string());
+  file.open();
+  const auto foam = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("foam"));
+  file.close();
+  ASSERT_TRUE(foam);
+  // Every foam particle of the frame lies in the grid's active region, where the value is > 0.
+  const WhitewaterFrame diffuse = readWhitewaterVdb(OutputLayout(out).whitewater(frame));
+  ASSERT_GT(diffuse.counts()[1], 0u);
+  const auto accessor = foam->getConstAccessor();
+  for (std::size_t i = 0; i < diffuse.particles.size(); ++i) {
+    if (diffuse.type[i] != DiffuseType::Foam) continue;
+    const Vec3r& x = diffuse.particles.position[i];
+    const openvdb::Coord ijk = foam->transform().worldToIndexCellCentered(openvdb::Vec3d(x.x(), x.y(), x.z()));
+    EXPECT_GT(accessor.getValue(ijk), 0.0f);
+  }
 }

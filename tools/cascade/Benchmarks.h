@@ -22,5 +22,6 @@ BenchTable benchAccuracy();   ///< bench_accuracy.cpp
 BenchTable benchSurface();    ///< bench_surface.cpp
 BenchTable benchRender();     ///< bench_render.cpp
 BenchTable benchBodies();     ///< bench_bodies.cpp
+BenchTable benchWhitewater(); ///< bench_whitewater.cpp
 
 } // namespace cascade::cli

@@ -162,7 +162,9 @@ void addRunCommand(CLI::App& app) {
         runStage("whitewater", outDir, scene.name, whitewaterHash, frameCount, outputs,
                  {{layout.whitewaterDir(), "whitewater", "vdb"}, {layout.whitewaterDir(), "whitewater", "ply"}});
       }
-      const std::string surfaceHash = scene::surfaceInputHash(scene, bakeHash);
+      // A foam grid makes the surface stage read the whitewater stage's files too.
+      const std::string surfaceHash =
+          scene::surfaceInputHash(scene, scene.surface.foamDensity && !whitewaterHash.empty() ? whitewaterHash : bakeHash);
       const scene::SurfaceSettings& surface = scene.surface;
       std::vector<FrameFiles> surfaceOutputs;
       if (surface.outputs != "vdb") surfaceOutputs.push_back({layout.meshDir(), "fluid", surface.meshFormat});

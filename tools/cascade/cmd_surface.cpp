@@ -62,6 +62,7 @@ void applySceneDefaults(SurfaceCommandOptions& options, const CLI::App& command)
   if (!given("--no-velocity")) options.noVelocity = !settings.velocity;
   if (!given("--adaptivity")) options.surface.adaptivity = settings.adaptivity;
   if (!given("--mesh-z-up")) options.meshZUp = settings.meshUp == "z";
+  if (!given("--foam-density")) options.surface.foamDensity = settings.foamDensity;
 }
 
 void runSurface(SurfaceCommandOptions& options) {
@@ -155,6 +156,8 @@ void addSurfaceCommand(CLI::App& app) {
                       "Drop mesh pieces enclosing less than this, m^3 (default: 1/8 particle volume)");
   command->add_option("--half-width", s.halfWidth, "Narrow-band half width, voxels")->capture_default_str();
   command->add_flag("--density", s.writeDensity, "Also write a \"density\" fog grid (Blender renders fog)");
+  command->add_flag("--foam-density", s.foamDensity,
+                    "Also write a \"foam\" fog grid from OUT/whitewater (foam particles per spacing^3)");
   command->add_option("--mesh-format", options->meshFormat,
                       "Mesh file: obj (ASCII, no velocities) | ply (binary, with per-vertex velocities)")
       ->capture_default_str();

@@ -24,26 +24,27 @@ struct WhitewaterOption {
   const char* flag;
   const char* key;
   const char* help;
-  bool pair;  ///< takes MIN,MAX
+  bool pair;         ///< takes MIN,MAX
+  const char* type;  ///< shown in --help
 };
 
 const std::vector<WhitewaterOption>& whitewaterOptions() {
   static const std::vector<WhitewaterOption> options{
-      {"--limits", "limits", "auto (from the bake's statistics) | fixed (the ranges below)", false},
-      {"--trapped-air", "trapped_air", "Trapped-air clamping range MIN,MAX, m/s (with --limits fixed)", true},
-      {"--wave-crest", "wave_crest", "Wave-crest clamping range MIN,MAX (with --limits fixed)", true},
-      {"--kinetic-energy", "kinetic_energy", "Kinetic energy clamping range MIN,MAX, J/kg (with --limits fixed)", true},
-      {"--trapped-air-rate", "trapped_air_rate", "Births per second of a fluid particle at full trapped-air potential", false},
-      {"--wave-crest-rate", "wave_crest_rate", "Births per second of a fluid particle at full wave-crest potential", false},
-      {"--rate-scale", "rate_scale", "Multiplies both birth rates", false},
-      {"--lifetime", "lifetime", "Foam lifetime range MIN,MAX, s", true},
-      {"--spray-neighbors", "spray_neighbors", "Fewer fluid neighbours than this: spray", false},
-      {"--bubble-neighbors", "bubble_neighbors", "More fluid neighbours than this: a bubble", false},
-      {"--buoyancy", "buoyancy", "Bubble buoyancy, in units of |g|", false},
-      {"--bubble-drag", "bubble_drag", "Bubble drag towards the fluid velocity, 1/s", false},
-      {"--air-drag", "air_drag", "Spray drag towards still air, 1/s (0: ballistic)", false},
-      {"--substeps", "substeps", "Sub-steps per frame (0: from the fluid's speed)", false},
-      {"--seed", "seed", "Random seed", false},
+      {"--limits", "limits", "auto (from the bake's statistics) | fixed (the ranges below)", false, "auto|fixed"},
+      {"--trapped-air", "trapped_air", "Trapped-air clamping range MIN,MAX, m/s (with --limits fixed)", true, "MIN,MAX"},
+      {"--wave-crest", "wave_crest", "Wave-crest clamping range MIN,MAX (with --limits fixed)", true, "MIN,MAX"},
+      {"--kinetic-energy", "kinetic_energy", "Kinetic energy clamping range MIN,MAX, J/kg (with --limits fixed)", true, "MIN,MAX"},
+      {"--trapped-air-rate", "trapped_air_rate", "Births per second of a fluid particle at full trapped-air potential", false, "FLOAT"},
+      {"--wave-crest-rate", "wave_crest_rate", "Births per second of a fluid particle at full wave-crest potential", false, "FLOAT"},
+      {"--rate-scale", "rate_scale", "Multiplies both birth rates", false, "FLOAT"},
+      {"--lifetime", "lifetime", "Foam lifetime range MIN,MAX, s", true, "MIN,MAX"},
+      {"--spray-neighbors", "spray_neighbors", "Fewer fluid neighbours than this: spray", false, "INT"},
+      {"--bubble-neighbors", "bubble_neighbors", "More fluid neighbours than this: a bubble", false, "INT"},
+      {"--buoyancy", "buoyancy", "Bubble buoyancy, in units of |g|", false, "FLOAT"},
+      {"--bubble-drag", "bubble_drag", "Bubble drag towards the fluid velocity, 1/s", false, "FLOAT"},
+      {"--air-drag", "air_drag", "Spray drag towards still air, 1/s (0: ballistic)", false, "FLOAT"},
+      {"--substeps", "substeps", "Sub-steps per frame (0: from the fluid's speed)", false, "INT"},
+      {"--seed", "seed", "Random seed", false, "INT"},
   };
   return options;
 }
@@ -172,7 +173,8 @@ void addWhitewaterCommand(CLI::App& app) {
   for (const WhitewaterOption& option : whitewaterOptions()) {
     const std::string flag = option.flag;
     sub->add_option_function<std::string>(
-        flag, [command, flag](const std::string& value) { command->given[flag] = value; }, option.help);
+        flag, [command, flag](const std::string& value) { command->given[flag] = value; }, option.help)
+        ->type_name(option.type);
   }
   sub->add_flag("--ply", command->ply, "Also write OUT/whitewater/*.ply points (Blender reads PLY, not VDB points)");
   sub->add_flag("--force", command->force, "Remake frames of the range made before with the same inputs");
