@@ -24,10 +24,12 @@ void fluidArrays(const ParticleFrame& frame, std::vector<Vec3r>& positions, std:
   }
 }
 
-FluidInterval::FluidInterval(const ParticleFrame& first, const ParticleFrame& second, double t0, double t1,
-                             const std::string& label)
-    : mT0(t0), mT1(t1) {
-  std::vector<Vec3r> x1, v1;
+void FluidInterval::assign(const ParticleFrame& first, const ParticleFrame& second, double t0, double t1,
+                           const std::string& label) {
+  mT0 = t0;
+  mT1 = t1;
+  std::vector<Vec3r>& x1 = mScratchX;
+  std::vector<Vec3r>& v1 = mScratchV;
   fluidArrays(first, mX0, mV0, label);
   fluidArrays(second, x1, v1, label);
   const std::size_t n = first.size();
@@ -40,7 +42,8 @@ FluidInterval::FluidInterval(const ParticleFrame& first, const ParticleFrame& se
     // Index of each id in the second frame: a table when ids are dense, else a hash map.
     const ParticleId maxId = second.id.empty() ? 0 : *std::max_element(second.id.begin(), second.id.end());
     if (std::size_t(maxId) < 4 * second.size() + 1024) {
-      std::vector<std::int64_t> where(std::size_t(maxId) + 1, -1);
+      std::vector<std::int64_t>& where = mWhere;
+      where.assign(std::size_t(maxId) + 1, -1);
       for (std::size_t j = 0; j < second.size(); ++j) where[second.id[j]] = std::int64_t(j);
       tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
         const ParticleId id = first.id[i];

@@ -22,7 +22,13 @@ public:
   /// `first` at time t0, `second` at t1 > t0. Throws InputError (naming `label`)
   /// if a frame has no velocities, or they cannot be matched.
   FluidInterval(const ParticleFrame& first, const ParticleFrame& second, double t0, double t1,
-                const std::string& label);
+                const std::string& label) {
+    assign(first, second, t0, t1, label);
+  }
+  FluidInterval() = default;
+  /// The same for another pair of frames, reusing the memory.
+  void assign(const ParticleFrame& first, const ParticleFrame& second, double t0, double t1,
+              const std::string& label);
 
   std::size_t size() const { return mX0.size(); }
   double t0() const { return mT0; }
@@ -35,10 +41,11 @@ public:
   const std::vector<std::uint32_t>& ids() const { return mIds; }
 
 private:
-  double mT0, mT1;
-  std::vector<Vec3r> mX0, mV0, mX1, mV1;
+  double mT0 = 0, mT1 = 1;
+  std::vector<Vec3r> mX0, mV0, mX1, mV1, mScratchX, mScratchV;
   std::vector<std::uint8_t> mMatched;
   std::vector<std::uint32_t> mIds;
+  std::vector<std::int64_t> mWhere;
 };
 
 /// Positions and velocities of a frame as float arrays (throws InputError naming

@@ -22,15 +22,15 @@ inline float weight(float r, float h) { return r < h ? 1.0f - r / h : 0.0f; }
 
 } // namespace
 
-FluidPotentials computePotentials(const std::vector<Vec3r>& positions, const std::vector<Vec3r>& velocities,
-                                  const NeighborLists& neighbors, Real h) {
+void computePotentials(const std::vector<Vec3r>& positions, const std::vector<Vec3r>& velocities,
+                       const NeighborLists& neighbors, Real h, FluidPotentials& out) {
   const std::size_t n = positions.size();
-  FluidPotentials out;
-  out.trappedAir.assign(n, 0.0f);
-  out.waveCrest.assign(n, 0.0f);
-  out.kineticEnergy.assign(n, 0.0f);
+  out.trappedAir.resize(n);
+  out.waveCrest.resize(n);
+  out.kineticEnergy.resize(n);
+  out.normal.resize(n);
   const float support = float(h);
-  std::vector<Vec3r> normal(n, Vec3r::Zero());
+  std::vector<Vec3r>& normal = out.normal;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       const std::uint32_t count = neighbors.count(i);
@@ -49,10 +49,11 @@ FluidPotentials computePotentials(const std::vector<Vec3r>& positions, const std
         const float speed = float(vij.norm());
         if (speed > 1e-6f) trapped += speed * (1.0f - float(vij.dot(xHat)) / speed) * w;  // eq. 2
       }
-      if (count <= kSurfaceNeighbors && sum.squaredNorm() > 0) normal[i] = sum.normalized();
-      if (count < kSourceNeighbors) continue;
-      out.trappedAir[i] = trapped;
-      out.kineticEnergy[i] = 0.5f * float(vi.squaredNorm());
+      normal[i] = count <= kSurfaceNeighbors && sum.squaredNorm() > 0 ? Vec3r(sum.normalized()) : Vec3r::Zero();
+      out.waveCrest[i] = 0;
+      const bool source = count >= kSourceNeighbors;
+      out.trappedAir[i] = source ? trapped : 0.0f;
+      out.kineticEnergy[i] = source ? 0.5f * float(vi.squaredNorm()) : 0.0f;
     }
   });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& range) {
@@ -73,7 +74,6 @@ FluidPotentials computePotentials(const std::vector<Vec3r>& positions, const std
       out.waveCrest[i] = curvature;
     }
   });
-  return out;
 }
 
 std::vector<float> birthRates(const FluidPotentials& potentials, const PotentialLimits& limits,

@@ -41,12 +41,20 @@ struct FluidPotentials {
   std::vector<float> trappedAir;     ///< I_ta before clamping, m/s
   std::vector<float> waveCrest;      ///< I_wc before clamping (0 off the surface)
   std::vector<float> kineticEnergy;  ///< |v|^2 / 2, J/kg
+  std::vector<Vec3r> normal;         ///< unit colour-field normal at the surface, zero inside
 };
 
 /// The potentials of every fluid particle; `neighbors` are its neighbours
 /// within h (self excluded), e.g. from UniformGridSearch::findNeighbors.
-FluidPotentials computePotentials(const std::vector<Vec3r>& positions, const std::vector<Vec3r>& velocities,
-                                  const NeighborLists& neighbors, Real h);
+/// Fills `out`, reusing its memory.
+void computePotentials(const std::vector<Vec3r>& positions, const std::vector<Vec3r>& velocities,
+                       const NeighborLists& neighbors, Real h, FluidPotentials& out);
+inline FluidPotentials computePotentials(const std::vector<Vec3r>& positions, const std::vector<Vec3r>& velocities,
+                                         const NeighborLists& neighbors, Real h) {
+  FluidPotentials out;
+  computePotentials(positions, velocities, neighbors, h, out);
+  return out;
+}
 
 /// Phi of eq. 1: 0 below tau_min, 1 above tau_max, linear between.
 inline float clampPotential(float value, double tauMin, double tauMax) {

@@ -11,7 +11,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <malloc.h>
+
 #include <algorithm>
+#include <climits>
 #include <chrono>
 #include <map>
 #include <sstream>
@@ -36,15 +39,24 @@ std::map<int, fs::path> cacheFiles(const OutputLayout& layout) {
   return files;
 }
 
-/// The potentials of one cached frame (fluid-fluid neighbours within h).
-FluidPotentials framePotentials(const ParticleFrame& frame, Real h, const std::string& label) {
-  std::vector<Vec3r> x, v;
-  fluidArrays(frame, x, v, label);
-  search::UniformGridSearch grid;
-  NeighborLists neighbors;
-  grid.findNeighbors(x.data(), x.size(), h, neighbors);
-  return computePotentials(x, v, neighbors, h);
-}
+/// The potentials of cached frames (fluid-fluid neighbours within h), reusing
+/// the memory of the frame before (page faults on fresh allocations otherwise
+/// cost as much as the neighbour search).
+class FramePotentials {
+public:
+  const FluidPotentials& of(const ParticleFrame& frame, Real h, const std::string& label) {
+    fluidArrays(frame, mX, mV, label);
+    mGrid.findNeighbors(mX.data(), mX.size(), h, mNeighbors);
+    computePotentials(mX, mV, mNeighbors, h, mPotentials);
+    return mPotentials;
+  }
+
+private:
+  std::vector<Vec3r> mX, mV;
+  search::UniformGridSearch mGrid;
+  NeighborLists mNeighbors;
+  FluidPotentials mPotentials;
+};
 
 nlohmann::json limitsToJson(const PotentialLimits& limits) {
   return {{"trapped_air", limits.trappedAir}, {"wave_crest", limits.waveCrest},
@@ -67,8 +79,14 @@ RemovalBox fluidBoundsGrown(const ParticleFrame& frame) {
 
 } // namespace
 
+void keepFreedMemory() {
+  ::mallopt(M_MMAP_MAX, 0);
+  ::mallopt(M_TRIM_THRESHOLD, INT_MAX);
+}
+
 std::string whitewaterHash(const WhitewaterStageOptions& options, const std::string& bakeHash) {
   nlohmann::json inputs{{"settings", scene::whitewaterSettingsToJson(options.settings)},
+                        {"spacing", options.spacing},
                         {"gravity", {options.gravity.x(), options.gravity.y(), options.gravity.z()}},
                         {"bake", bakeHash}};
   if (options.domain)
@@ -106,9 +124,9 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
   ParticleFrame firstCache = readCache(firstFrame);
   if (firstCache.velocity.size() != firstCache.size())
     throw InputError(caches.at(firstFrame).string() + ": the particle cache has no velocities (whitewater needs them)");
-  const double spacing = firstCache.spacing > 0 ? double(firstCache.spacing) : 0.0;
+  const double spacing = options.spacing > 0 ? options.spacing : double(firstCache.spacing);
   if (!(spacing > 0))
-    throw InputError(caches.at(firstFrame).string() + ": the cache does not say its particle spacing");
+    throw InputError(caches.at(firstFrame).string() + ": the cache does not say its particle spacing (give --spacing)");
   const auto bakeHashIt = firstCache.metadata.find("bake_hash");
   WhitewaterRunReport report;
   report.inputHash = whitewaterHash(options, bakeHashIt == firstCache.metadata.end() ? "" : bakeHashIt->second);
@@ -150,9 +168,11 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
       for (const auto& [frame, path] : caches) all.push_back(frame);
       const std::size_t samples = std::min<std::size_t>(kLimitSampleFrames, all.size());
       std::vector<FluidPotentials> potentials;
+      FramePotentials sampler;
       for (std::size_t k = 0; k < samples; ++k) {
         const int frame = all[(all.size() - 1) * k / std::max<std::size_t>(1, samples - 1)];
-        potentials.push_back(framePotentials(readCache(frame), h, caches.at(frame).string()));
+        const FluidPotentials& sample = sampler.of(readCache(frame), h, caches.at(frame).string());
+        potentials.push_back({sample.trappedAir, sample.waveCrest, sample.kineticEnergy, {}});
       }
       limits = limitsFromStatistics(potentials, physicalFloors(h, options.gravity.norm()));
       nlohmann::json kept = limitsToJson(limits);
@@ -192,6 +212,8 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
       break;
     }
 
+  FramePotentials framePotentials;
+  FluidInterval interval;
   WhitewaterFrame state;  // at frame stateFrame
   int stateFrame = -1;
   std::optional<ParticleFrame> previousCache;  // the cache of frame - 1
@@ -225,11 +247,11 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
       if (!(t1 > t0))
         throw InputError(caches.at(frame).string() + ": its time is not after the frame before's");
       const auto potentialStart = std::chrono::steady_clock::now();
-      const FluidPotentials potentials = framePotentials(*previousCache, h, label);
+      const FluidPotentials& potentials = framePotentials.of(*previousCache, h, label);
       const std::vector<float> rates = birthRates(potentials, limits, settings.trappedAirRate,
                                                   settings.waveCrestRate, settings.rateScale);
       frameReport.potentialSeconds = secondsSince(potentialStart);
-      const FluidInterval interval(*previousCache, cache, t0, t1, label);
+      interval.assign(*previousCache, cache, t0, t1, label);
       next.particles = std::move(state.particles);
       next.nextId = state.nextId;
       frameReport.stats = solver.advance(interval, rates, frame - 1, next.particles, next.nextId);

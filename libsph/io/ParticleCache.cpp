@@ -8,6 +8,7 @@
 
 #include <openvdb/openvdb.h>
 #include <openvdb/points/PointConversion.h>
+#include <openvdb/points/PointCount.h>
 #include <openvdb/points/PointDataGrid.h>
 
 #include <algorithm>
@@ -137,6 +138,12 @@ ParticleFrame readVdbFrame(const fs::path& path) {
   const bool hasVelocity = has("v"), hasId = has("id"), hasDensity = has("density"),
              hasPressure = has("pressure");
   const auto& transform = grid->transform();
+  const std::size_t count = std::size_t(points::pointCount(tree));
+  frame.position.reserve(count);
+  if (hasVelocity) frame.velocity.reserve(count);
+  if (hasId) frame.id.reserve(count);
+  if (hasDensity) frame.density.reserve(count);
+  if (hasPressure) frame.pressure.reserve(count);
   for (; leaf; ++leaf) {
     points::AttributeHandle<openvdb::Vec3f> positionHandle(leaf->constAttributeArray("P"));
     std::unique_ptr<points::AttributeHandle<openvdb::Vec3f>> velocityHandle;

@@ -76,6 +76,7 @@ void bakeTower(const fs::path& out) {
 } // namespace
 
 BenchTable benchWhitewater() {
+  whitewater::keepFreedMemory();  // as `cascade whitewater` does
   BenchTable table("whitewater",
                    {"case", "fluid_particles", "frames", "substeps", "ms_per_frame", "max_ms", "potentials_ms",
                     "born_per_frame", "diffuse_max", "spray", "foam", "bubbles", "state_bytes_per_diffuse",

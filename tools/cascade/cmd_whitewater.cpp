@@ -53,6 +53,7 @@ struct WhitewaterCommandOptions {
   std::string out, frames;
   std::map<std::string, std::string> given;  ///< flag -> text
   bool ply = false, force = false;
+  double spacing = 0;
 };
 
 /// The settings: OUT/scene.json's block (or the defaults) with the options given.
@@ -129,10 +130,17 @@ whitewater::WhitewaterStageOptions stageOptions(const WhitewaterCommandOptions& 
   }
   options.frames = command.frames.empty() ? FrameRange{} : parseFrameRange(command.frames);
   options.force = command.force;
+  if (!(command.spacing >= 0)) {
+    std::ostringstream message;
+    message << "--spacing: must be > 0 (got " << command.spacing << ")";
+    throw InputError(message.str());
+  }
+  options.spacing = command.spacing;
   return options;
 }
 
 void runWhitewaterCommand(const WhitewaterCommandOptions& command) {
+  whitewater::keepFreedMemory();
   const OutputLayout layout(command.out);
   if (!std::filesystem::is_directory(layout.root))
     throw InputError(layout.root.string() + ": no such output directory");
@@ -176,6 +184,8 @@ void addWhitewaterCommand(CLI::App& app) {
         flag, [command, flag](const std::string& value) { command->given[flag] = value; }, option.help)
         ->type_name(option.type);
   }
+  sub->add_option("--spacing", command->spacing,
+                  "The fluid's particle spacing, m (default: from the caches; needed for PLY caches of other tools)");
   sub->add_flag("--ply", command->ply, "Also write OUT/whitewater/*.ply points (Blender reads PLY, not VDB points)");
   sub->add_flag("--force", command->force, "Remake frames of the range made before with the same inputs");
   sub->footer("Defaults: OUT/scene.json's \"whitewater\" block, else those in docs/whitewater.md.");
