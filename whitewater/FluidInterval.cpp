@@ -7,10 +7,19 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 #include <unordered_map>
 
 namespace cascade::whitewater {
+
+namespace {
+double largestSpeed(const std::vector<Vec3r>& velocities) {
+  double fastest = 0;
+  for (const Vec3r& v : velocities) fastest = std::max(fastest, double(v.squaredNorm()));
+  return std::sqrt(fastest);
+}
+} // namespace
 
 void fluidArrays(const ParticleFrame& frame, std::vector<Vec3r>& positions, std::vector<Vec3r>& velocities,
                  const std::string& label) {
@@ -75,6 +84,7 @@ void FluidInterval::assign(const ParticleFrame& first, const ParticleFrame& seco
     mV1 = v1;
     mMatched.assign(n, 1);
   }
+  mMaxSpeed = std::max(largestSpeed(mV0), largestSpeed(v1));
 }
 
 void FluidInterval::at(double t, std::vector<Vec3r>& positions, std::vector<Vec3r>& velocities) const {

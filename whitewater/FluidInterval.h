@@ -37,11 +37,14 @@ public:
   /// Positions and velocities of the fluid at time t in [t0, t1] (resized to size()).
   void at(double t, std::vector<Vec3r>& positions, std::vector<Vec3r>& velocities) const;
 
+  /// The largest speed of a particle at either end, m/s.
+  double maxSpeed() const { return mMaxSpeed; }
+
   /// Ids of the particles (those of the first frame, or indices without ids).
   const std::vector<std::uint32_t>& ids() const { return mIds; }
 
 private:
-  double mT0 = 0, mT1 = 1;
+  double mT0 = 0, mT1 = 1, mMaxSpeed = 0;
   std::vector<Vec3r> mX0, mV0, mX1, mV1, mScratchX, mScratchV;
   std::vector<std::uint8_t> mMatched;
   std::vector<std::uint32_t> mIds;

@@ -54,13 +54,7 @@ double WhitewaterSolver::lifetime(std::uint32_t id) const {
 
 int WhitewaterSolver::substepsFor(const FluidInterval& fluid) const {
   if (mSettings.substeps > 0) return mSettings.substeps;
-  std::vector<Vec3r> x, v;
-  double fastest = 0;
-  for (double t : {fluid.t0(), fluid.t1()}) {
-    fluid.at(t, x, v);
-    for (const Vec3r& velocity : v) fastest = std::max(fastest, double(velocity.squaredNorm()));
-  }
-  const double steps = std::ceil(std::sqrt(fastest) * (fluid.t1() - fluid.t0()) / double(mH));
+  const double steps = std::ceil(fluid.maxSpeed() * (fluid.t1() - fluid.t0()) / double(mH));
   return int(std::clamp(steps, 1.0, 64.0));
 }
 
