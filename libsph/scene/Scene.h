@@ -209,8 +209,9 @@ struct SurfaceSettings {
 /// without a "whitewater" block has no whitewater stage in `cascade run`.
 /// docs/whitewater.md says what each value does and where its default comes from.
 struct WhitewaterSettings {
-  /// "auto": the clamping ranges below are taken from the bake's own statistics
-  /// (percentiles of each potential over its frames); "fixed": as given.
+  /// "auto": the clamping ranges come from the bake's own statistics (the mean
+  /// of each potential's per-frame maxima, M, gives [0.1 M, M], with physical
+  /// floors); "fixed": the ranges below.
   std::string limits = "auto";
   std::array<double, 2> trappedAir{5, 20};      ///< [tau_min, tau_max] of the trapped-air potential, m/s
   std::array<double, 2> waveCrest{0.5, 2};      ///< [tau_min, tau_max] of the wave-crest potential
