@@ -3,6 +3,7 @@
 #include "libsph/Errors.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/ParticleCache.h"
+#include "libsph/io/VdbFile.h"
 #include "surfacing/LevelSetFiltering.h"
 #include "surfacing/LevelSetMesher.h"
 #include "surfacing/LevelSetMethods.h"
@@ -86,11 +87,6 @@ double processCpuSeconds() {
   timespec now{};
   ::clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now);
   return double(now.tv_sec) + 1e-9 * double(now.tv_nsec);
-}
-
-void initializeOpenVdb() {
-  static std::once_flag once;
-  std::call_once(once, [] { openvdb::initialize(); });
 }
 
 void writeSurfaceVdb(const fs::path& path, openvdb::FloatGrid& levelSet, openvdb::Vec3SGrid* velocity,

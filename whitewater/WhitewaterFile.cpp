@@ -4,6 +4,7 @@
 #include "libsph/Errors.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/VdbFile.h"
+#include "libsph/io/VdbPointAttributes.h"
 
 #include <openvdb/openvdb.h>
 #include <openvdb/points/PointConversion.h>
@@ -11,7 +12,6 @@
 
 #include <algorithm>
 #include <cstring>
-#include <mutex>
 #include <numeric>
 #include <sstream>
 
@@ -26,18 +26,6 @@ constexpr const char* kTimeKey = "cascade_time";
 constexpr const char* kNextIdKey = "cascade_next_id";
 constexpr const char* kSpacingKey = "cascade_spacing";
 constexpr const char* kHashKey = "cascade_input_hash";
-
-void initializeOpenVdb() {
-  static std::once_flag once;
-  std::call_once(once, [] { openvdb::initialize(); });
-}
-
-template <typename T>
-void populate(openvdb::points::PointDataTree& tree, const openvdb::tools::PointIndexTree& indexTree,
-              const char* name, const std::vector<T>& values) {
-  openvdb::points::PointAttributeVector<T> wrapper(values);
-  openvdb::points::populateAttribute(tree, indexTree, name, wrapper);
-}
 
 openvdb::points::PointDataGrid::Ptr readGrid(const fs::path& path, bool withData) {
   initializeOpenVdb();
@@ -97,13 +85,13 @@ void writeWhitewaterVdb(const fs::path& path, const WhitewaterFrame& frame) {
     types[i] = int32_t(frame.type[i]);
   }
   points::appendAttribute<openvdb::Vec3f>(tree, "v");
-  populate(tree, indexTree, "v", velocity);
+  populatePointAttribute(tree, indexTree, "v", velocity);
   points::appendAttribute<int32_t>(tree, "id");
-  populate(tree, indexTree, "id", ids);
+  populatePointAttribute(tree, indexTree, "id", ids);
   points::appendAttribute<int32_t>(tree, "type");
-  populate(tree, indexTree, "type", types);
+  populatePointAttribute(tree, indexTree, "type", types);
   points::appendAttribute<float>(tree, "age");
-  populate(tree, indexTree, "age", age);
+  populatePointAttribute(tree, indexTree, "age", age);
 
   grid->setName(kGridName);
   grid->insertMeta(kTimeKey, openvdb::DoubleMetadata(frame.time));

@@ -256,9 +256,7 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
       next.nextId = state.nextId;
       frameReport.stats = solver.advance(interval, rates, frame - 1, next.particles, next.nextId);
     }
-    std::vector<Vec3r> fluidX, fluidV;
-    fluidArrays(cache, fluidX, fluidV, caches.at(frame).string());
-    next.type = solver.classify(next.particles, fluidX);
+    next.type = solver.classify(next.particles, cache.position);
     writeWhitewaterVdb(layout.whitewater(frame), next);
     // The file is the state: continue from what it holds (a resumed run does the same).
     state = readWhitewaterVdb(layout.whitewater(frame));

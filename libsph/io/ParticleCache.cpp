@@ -5,6 +5,7 @@
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/Ply.h"
 #include "libsph/io/VdbFile.h"
+#include "libsph/io/VdbPointAttributes.h"
 
 #include <openvdb/openvdb.h>
 #include <openvdb/points/PointConversion.h>
@@ -14,7 +15,6 @@
 #include <algorithm>
 #include <cstring>
 #include <fstream>
-#include <mutex>
 #include <numeric>
 #include <sstream>
 
@@ -27,18 +27,6 @@ namespace {
 constexpr const char* kGridName = "particles";
 constexpr const char* kTimeKey = "cascade_time";
 constexpr const char* kSpacingKey = "cascade_spacing";
-
-void initializeOpenVdb() {
-  static std::once_flag once;
-  std::call_once(once, [] { openvdb::initialize(); });
-}
-
-template <typename T>
-void populate(openvdb::points::PointDataTree& tree, const openvdb::tools::PointIndexTree& indexTree,
-              const char* name, const std::vector<T>& values) {
-  openvdb::points::PointAttributeVector<T> wrapper(values);
-  openvdb::points::populateAttribute(tree, indexTree, name, wrapper);
-}
 
 } // namespace
 
@@ -73,22 +61,22 @@ void writeParticleFrame(const fs::path& path, const ParticleFrame& frame, double
                                    float(frame.velocity[i].z()));
     // v: half floats (relative precision about 1e-3).
     points::appendAttribute<openvdb::Vec3f, points::TruncateCodec>(tree, "v");
-    populate(tree, indexTree, "v", velocity);
+    populatePointAttribute(tree, indexTree, "v", velocity);
   }
   if (frame.id.size() == count) {
     std::vector<int32_t> ids(frame.id.begin(), frame.id.end());
     points::appendAttribute<int32_t>(tree, "id");
-    populate(tree, indexTree, "id", ids);
+    populatePointAttribute(tree, indexTree, "id", ids);
   }
   if (frame.density.size() == count) {
     std::vector<float> density(frame.density.begin(), frame.density.end());
     points::appendAttribute<float>(tree, "density");
-    populate(tree, indexTree, "density", density);
+    populatePointAttribute(tree, indexTree, "density", density);
   }
   if (frame.pressure.size() == count) {
     std::vector<float> pressure(frame.pressure.begin(), frame.pressure.end());
     points::appendAttribute<float>(tree, "pressure");
-    populate(tree, indexTree, "pressure", pressure);
+    populatePointAttribute(tree, indexTree, "pressure", pressure);
   }
 
   grid->setName(kGridName);

@@ -28,9 +28,13 @@ struct HeaderReader : openvdb::io::Archive {
 };
 } // namespace
 
-void validateVdbFile(const std::filesystem::path& path) {
+void initializeOpenVdb() {
   static std::once_flag once;
   std::call_once(once, [] { openvdb::initialize(); });
+}
+
+void validateVdbFile(const std::filesystem::path& path) {
+  initializeOpenVdb();
   const std::string where = path.string() + ": ";
   std::error_code error;
   if (!std::filesystem::is_regular_file(path, error)) throw InputError(where + "no such file");

@@ -12,6 +12,9 @@
 
 namespace cascade {
 
+/// openvdb::initialize(), once per process, from any thread.
+void initializeOpenVdb();
+
 /// Throws InputError("<path>: ...") unless `path` is a whole OpenVDB file.
 void validateVdbFile(const std::filesystem::path& path);
 
