@@ -2,6 +2,7 @@
 
 #include "libsph/Errors.h"
 #include "libsph/io/AtomicFile.h"
+#include "libsph/Version.h"
 
 #include <png.h>
 
@@ -95,7 +96,9 @@ void writePng(const fs::path& path, const Image& image, bool withAlpha, const Pn
     if (!file) throw std::runtime_error(path.string() + ": cannot open for writing");
     std::vector<std::uint8_t> row(std::size_t(image.width) * 4);
     std::vector<png_text> chunks;
-    for (const auto& [key, value] : text) {
+    PngText stamped = text;
+    stamped.emplace("Software", "cascade " + cascadeVersion());  // PNG's keyword for the writer
+    for (const auto& [key, value] : stamped) {
       png_text chunk{};
       chunk.compression = PNG_TEXT_COMPRESSION_NONE;
       chunk.key = const_cast<char*>(key.c_str());

@@ -1,6 +1,7 @@
 #include "surfacing/SurfaceStage.h"
 
 #include "libsph/Errors.h"
+#include "libsph/Version.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/ParticleCache.h"
 #include "libsph/io/VdbFile.h"
@@ -104,6 +105,7 @@ void writeSurfaceVdb(const fs::path& path, openvdb::FloatGrid& levelSet, openvdb
   surface->insertMeta("cascade_method", openvdb::StringMetadata(surfaceMethodName(options.method)));
   surface->insertMeta("cascade_spacing", openvdb::FloatMetadata(float(spacing)));
   surface->insertMeta("cascade_up_axis", openvdb::StringMetadata(yUp ? "y" : "z"));
+  surface->insertMeta("cascade_version", openvdb::StringMetadata(cascadeVersion()));
   grids.push_back(surface);
   if (velocity) {
     openvdb::Vec3SGrid::Ptr v;

@@ -2,6 +2,7 @@
 #include "whitewater/WhitewaterFile.h"
 
 #include "libsph/Errors.h"
+#include "libsph/Version.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/VdbFile.h"
 #include "libsph/io/VdbPointAttributes.h"
@@ -98,6 +99,7 @@ void writeWhitewaterVdb(const fs::path& path, const WhitewaterFrame& frame) {
   grid->insertMeta(kNextIdKey, openvdb::Int64Metadata(frame.nextId));
   grid->insertMeta(kSpacingKey, openvdb::DoubleMetadata(frame.spacing));
   grid->insertMeta(kHashKey, openvdb::StringMetadata(frame.inputHash));
+  grid->insertMeta("cascade_version", openvdb::StringMetadata(cascadeVersion()));
   writeFileAtomically(path, [&](const fs::path& temp) {
     openvdb::io::File file(temp.string());
     file.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
@@ -162,7 +164,8 @@ WhitewaterFrame readWhitewaterHeader(const fs::path& path) {
 void writeWhitewaterPly(const fs::path& path, const WhitewaterFrame& frame) {
   const DiffuseParticles& p = frame.particles;
   std::ostringstream header;
-  header << "ply\nformat binary_little_endian 1.0\ncomment Cascade whitewater (type: 0 spray, 1 foam, 2 bubble)\n"
+  header << "ply\nformat binary_little_endian 1.0\ncomment Cascade whitewater (type: 0 spray, 1 foam, 2 bubble)\ncomment "
+         << writtenBy() << "\n"
          << "comment up: z\nelement vertex " << p.size()
          << "\nproperty float x\nproperty float y\nproperty float z\nproperty float vx\nproperty float vy\n"
             "property float vz\nproperty int id\nproperty uchar type\nproperty float age\nend_header\n";

@@ -1,5 +1,6 @@
 // Triangle meshes as PLY (TriangleMesh.h: writePly, readPly, readMesh).
 #include "libsph/Errors.h"
+#include "libsph/Version.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/Ply.h"
 #include "libsph/io/TriangleMesh.h"
@@ -45,6 +46,7 @@ void writePly(const std::filesystem::path& path, const TriangleMesh& mesh, const
   const bool withVelocities = !mesh.velocities.empty() && mesh.velocities.size() == n;
   std::string header = "ply\nformat binary_little_endian 1.0\ncomment Cascade surface mesh\n";
   header += prefixedLines(comment, "comment ");
+  header += "comment " + writtenBy() + "\n";
   header += "element vertex " + std::to_string(n) + "\n";
   for (const char* name : {"x", "y", "z"}) header += std::string("property float ") + name + "\n";
   if (withNormals)

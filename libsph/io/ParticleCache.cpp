@@ -2,6 +2,7 @@
 #include "libsph/io/ParticleCache.h"
 
 #include "libsph/Errors.h"
+#include "libsph/Version.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/Ply.h"
 #include "libsph/io/VdbFile.h"
@@ -27,6 +28,7 @@ namespace {
 constexpr const char* kGridName = "particles";
 constexpr const char* kTimeKey = "cascade_time";
 constexpr const char* kSpacingKey = "cascade_spacing";
+constexpr const char* kVersionKey = "cascade_version";  // the writer (Version.h)
 
 } // namespace
 
@@ -83,6 +85,7 @@ void writeParticleFrame(const fs::path& path, const ParticleFrame& frame, double
   grid->insertMeta(kTimeKey, openvdb::DoubleMetadata(frame.time));
   grid->insertMeta(kSpacingKey, openvdb::FloatMetadata(float(frame.spacing)));
   for (const auto& [key, value] : frame.metadata) grid->insertMeta(key, openvdb::StringMetadata(value));
+  grid->insertMeta(kVersionKey, openvdb::StringMetadata(cascadeVersion()));
 
   writeFileAtomically(path, [&](const fs::path& temp) {
     openvdb::io::File file(temp.string());
@@ -192,7 +195,7 @@ ParticleFrame readPlyFrame(const fs::path& path) {
 void writeParticlePly(const fs::path& path, const ParticleFrame& frame) {
   const bool withVelocity = frame.velocity.size() == frame.size() && !frame.velocity.empty();
   std::ostringstream header;
-  header << "ply\nformat binary_little_endian 1.0\ncomment Cascade particles\nelement vertex "
+  header << "ply\nformat binary_little_endian 1.0\ncomment Cascade particles\ncomment " << writtenBy() << "\nelement vertex "
          << frame.size() << "\nproperty float x\nproperty float y\nproperty float z\n";
   if (withVelocity) header << "property float vx\nproperty float vy\nproperty float vz\n";
   header << "end_header\n";

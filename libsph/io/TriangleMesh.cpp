@@ -1,4 +1,5 @@
 #include "libsph/io/TriangleMesh.h"
+#include "libsph/Version.h"
 
 #include "libsph/Errors.h"
 #include "libsph/io/AtomicFile.h"
@@ -234,6 +235,7 @@ void writeObj(const std::filesystem::path& path, const TriangleMesh& mesh, const
   std::string header = "# Cascade triangle mesh: " + std::to_string(mesh.vertices.size()) + " vertices, " +
                        std::to_string(mesh.triangles.size()) + " triangles\n";
   header += prefixedLines(comment, "# ");
+  header += "# " + writtenBy() + "\n";
 
   // The blocks of the file, in order.
   std::vector<ObjBlock> blocks;

@@ -136,6 +136,23 @@ double pressureAt(const Particles& particles, const Vec3r& point, Real supportRa
   return weights > 0 ? weighted / weights : 0.0;
 }
 
+double pressureOverDisc(const Particles& particles, const Vec3r& center, const Vec3r& normal, Real radius,
+                        Real supportRadius, const Vec3r& gravity, const std::uint32_t* begin, const std::uint32_t* end) {
+  if (!(radius > 0)) return pressureAt(particles, center, supportRadius, gravity, begin, end);
+  // Two unit vectors spanning the face.
+  const Vec3r n = normal.normalized();
+  const Vec3r helper = std::abs(n.x()) < Real(0.9) ? Vec3r::UnitX() : Vec3r::UnitY();
+  const Vec3r u = n.cross(helper).normalized(), v = n.cross(u);
+  double sum = 0.25 * pressureAt(particles, center, supportRadius, gravity, begin, end);
+  const Real ring = radius * Real(std::sqrt(2.0 / 3.0));
+  for (int k = 0; k < 6; ++k) {
+    const double angle = k * M_PI / 3.0;
+    const Vec3r point = center + ring * (Real(std::cos(angle)) * u + Real(std::sin(angle)) * v);
+    sum += 0.125 * pressureAt(particles, point, supportRadius, gravity, begin, end);
+  }
+  return sum;
+}
+
 bool velocityAt(const Particles& particles, const Vec3r& point, Real supportRadius, const std::uint32_t* begin,
                 const std::uint32_t* end, Vec3d& velocity) {
   Vec3d weighted = Vec3d::Zero();

@@ -50,6 +50,15 @@ double pressureAt(const Particles& particles, const Vec3r& point, Real supportRa
 double pressureAt(const Particles& particles, const Vec3r& point, Real supportRadius, const Vec3r& gravity,
                   const std::uint32_t* begin, const std::uint32_t* end);
 
+/// Pressure over a transducer's face, a disc of `radius` centred at `center` with unit
+/// `normal`: the area average of pressureAt (each point Shepard-normalised, 0 where no
+/// fluid is within supportRadius, as a dry part of the face reads) over the 7-point
+/// disc rule exact for cubics (centre 1/4; six points at sqrt(2/3) radius, 1/8 each;
+/// Stroud 1971, S2:3-1). The list must hold the particles within supportRadius + radius.
+/// radius 0 is pressureAt at the centre.
+double pressureOverDisc(const Particles& particles, const Vec3r& center, const Vec3r& normal, Real radius,
+                        Real supportRadius, const Vec3r& gravity, const std::uint32_t* begin, const std::uint32_t* end);
+
 /// Fluid velocity at a point: the Shepard-normalised SPH average of v_j with poly6
 /// weights over the listed particles (within supportRadius). False (velocity
 /// untouched) if no fluid is within supportRadius.

@@ -59,15 +59,18 @@ std::string sampleProbes(const Scene& scene, const Simulation& simulation) {
   for (const Probe& probe : scene.probes)
     if (probe.type == "pressure" || probe.type == "velocity")
       points.emplace_back(Real(probe.at[0]), Real(probe.at[1]), Real(probe.at[2]));
-  const NeighborLists near = probeNeighborhoods(particles, points, simulation.supportRadius());
+  double faceRadius = 0;
+  for (const Probe& probe : scene.probes) faceRadius = std::max(faceRadius, probe.radius);
+  const NeighborLists near = probeNeighborhoods(particles, points, simulation.supportRadius() + Real(faceRadius));
   std::size_t point = 0;
   for (const Probe& probe : scene.probes) {
     const Vec3r at(Real(probe.at[0]), Real(probe.at[1]), Real(probe.at[2]));
     if (probe.type == "height") {
       row += "," + formatValue(waterHeight(particles.position, probe.at[0], probe.at[1], spacing));
     } else if (probe.type == "pressure") {
-      row += "," + formatValue(pressureAt(particles, at, simulation.supportRadius(), gravity, near.begin(point),
-                                          near.end(point)));
+      const Vec3r normal(Real(probe.normal[0]), Real(probe.normal[1]), Real(probe.normal[2]));
+      row += "," + formatValue(pressureOverDisc(particles, at, normal, Real(probe.radius), simulation.supportRadius(),
+                                                gravity, near.begin(point), near.end(point)));
       ++point;
     } else if (probe.type == "velocity") {
       Vec3d velocity;

@@ -75,6 +75,8 @@ struct Solver {
   /// WCSPH pressure force: "hamiltonian" (Monaghan 1992) | "symmetric" | "mueller_half" (SEED (5) as printed)
   std::string pressureForce = "hamiltonian";
   bool surfaceLayerPressure = true;  ///< WCSPH: top layer keeps rho_0 |g| s / 2
+  std::string density = "summation"; ///< WCSPH: "summation" SEED (4) | "continuity" (with density diffusion)
+  double densityDiffusion = 0.1;     ///< WCSPH continuity: delta-SPH's delta (0 = off)
   double artificialViscosity = 0.1;  ///< Monaghan alpha; 0 = off
   bool artificialViscosityAllPairs = true;  ///< WCSPH: also for receding pairs
   double expectedSpeed = 0;          ///< m/s; 0: derived (free fall height, emitter speeds)
@@ -245,6 +247,10 @@ struct Probe {
   Vec3 at{0, 0, 0};                     ///< height: x, y (z ignored); pressure, velocity: x, y, z
   std::string obstacle;                 ///< force, body
   Vec3 direction{1, 0, 0};              ///< front
+  /// pressure: the sensor face's radius, m (0: a point); its normal (zero: the normal of
+  /// the tank wall the point lies on)
+  double radius = 0;
+  Vec3 normal{0, 0, 0};
 };
 
 struct Scene {

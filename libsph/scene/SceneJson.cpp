@@ -56,6 +56,10 @@ std::string nearestWord(const std::string& word, const std::vector<std::string>&
 
 namespace {
 
+/// The largest magnitude a scene number may have (beyond: a typo or a unit mistake,
+/// never a shot): scalars, vector components (m, m/s, colours) and gravity.
+constexpr double kLargestScalar = 1e9, kLargestComponent = 1e6, kLargestGravity = 1e3;
+
 std::string shortDump(const json& value) {
   std::string text = value.dump();
   if (text.size() > 40) text = text.substr(0, 37) + "...";
@@ -125,10 +129,13 @@ public:
     return checkNumber(require(key), pathOf(key), range);
   }
 
-  double checkNumber(const json& value, const std::string& path, Range range) const {
+  double checkNumber(const json& value, const std::string& path, Range range,
+                     double largest = kLargestScalar) const {
     if (!value.is_number()) fail(path, "must be a number (got " + shortDump(value) + ")");
     const double number = value.get<double>();
     if (!std::isfinite(number)) fail(path, "must be finite (got " + shortDump(value) + ")");
+    if (std::abs(number) > largest)
+      fail(path, "absurd magnitude (got " + formatNumber(number) + "; at most " + formatNumber(largest) + ")");
     if (range == Range::Positive && !(number > 0))
       fail(path, "must be > 0 (got " + formatNumber(number) + ")");
     if (range == Range::NonNegative && !(number >= 0))
@@ -208,7 +215,7 @@ public:
       fail(path, "must be an array of " + std::to_string(N) + " numbers (got " + shortDump(value) + ")");
     std::array<double, N> result{};
     for (std::size_t i = 0; i < N; ++i)
-      result[i] = checkNumber(value[i], path + "[" + std::to_string(i) + "]", range);
+      result[i] = checkNumber(value[i], path + "[" + std::to_string(i) + "]", range, kLargestComponent);
     return result;
   }
 
@@ -476,6 +483,10 @@ Probe readProbe(const Context& context, const json& value, const std::string& pa
     }
   } else if (probe.type == "pressure" || probe.type == "velocity") {
     probe.at = reader.requiredVector<3>("at");
+    if (probe.type == "pressure") {
+      probe.radius = reader.number("radius", probe.radius, Range::NonNegative);
+      if (reader.find("normal")) probe.normal = nonZeroVector(reader, "normal", probe.normal);
+    }
   } else {
     probe.at = reader.vector<3>("at", probe.at);
   }
@@ -615,6 +626,9 @@ Scene parseScene(const json& value, const std::string& fileLabel, const fs::path
   scene.description = top.string("description", scene.description);
   scene.size = top.string("size", scene.size);
   scene.gravity = top.vector<3>("gravity", scene.gravity);
+  if (norm(scene.gravity) > kLargestGravity)
+    top.fail("gravity", "absurd magnitude (|g| = " + formatNumber(norm(scene.gravity)) + " m/s^2; at most " +
+                            formatNumber(kLargestGravity) + ")");
 
   if (const json* fluidJson = top.find("fluid")) {
     ObjectReader fluid(context, *fluidJson, "fluid");
@@ -643,6 +657,8 @@ Scene parseScene(const json& value, const std::string& fileLabel, const fs::path
     s.kernels = solver.choice("kernels", s.kernels, {"wendland_c2", "cubic_spline", "mueller2003"});
     s.pressureForce = solver.choice("pressure_force", s.pressureForce, {"hamiltonian", "symmetric", "mueller_half"});
     s.surfaceLayerPressure = solver.boolean("surface_layer_pressure", s.surfaceLayerPressure);
+    s.density = solver.choice("density", s.density, {"summation", "continuity"});
+    s.densityDiffusion = solver.numberIn("density_diffusion", s.densityDiffusion, 0, 1);
     s.artificialViscosity = solver.numberIn("artificial_viscosity", s.artificialViscosity, 0, 2);
     s.artificialViscosityAllPairs = solver.boolean("artificial_viscosity_all_pairs", s.artificialViscosityAllPairs);
     s.expectedSpeed = solver.number("expected_speed", s.expectedSpeed, Range::NonNegative);
@@ -771,6 +787,25 @@ Scene parseScene(const json& value, const std::string& fileLabel, const fs::path
                                              "\"dynamic\"" + suggestion);
       }
     }
+    if (probe.type == "pressure" && probe.radius > 0 && probe.normal == Vec3{0, 0, 0}) {
+      // The sensor face lies on the tank wall nearest its centre (within two spacings).
+      double nearest = 2 * scene.fluid.spacing;
+      if (const auto& tank = scene.boundaries.tank) {
+        for (int a = 0; a < 3; ++a)
+          for (int side = 0; side < 2; ++side) {
+            if (a == 2 && side == 1) continue;  // the open top
+            const double distance = std::abs(probe.at[a] - (side ? tank->max[a] : tank->min[a]));
+            if (distance <= nearest) {
+              nearest = distance;
+              probe.normal = {0, 0, 0};
+              probe.normal[a] = side ? -1 : 1;
+            }
+          }
+      }
+      if (probe.normal == Vec3{0, 0, 0})
+        context.fail(path + ".normal", "a pressure probe with a radius needs the sensor face's normal (its centre is "
+                                       "not on a tank wall)");
+    }
     scene.probes.push_back(std::move(probe));
   });
 
@@ -805,6 +840,8 @@ json sceneToJson(const Scene& scene) {
               {"kernels", s.kernels},
               {"pressure_force", s.pressureForce},
               {"surface_layer_pressure", s.surfaceLayerPressure},
+              {"density", s.density},
+              {"density_diffusion", s.densityDiffusion},
               {"artificial_viscosity", s.artificialViscosity},
               {"artificial_viscosity_all_pairs", s.artificialViscosityAllPairs},
               {"expected_speed", s.expectedSpeed},
@@ -863,6 +900,10 @@ json sceneToJson(const Scene& scene) {
   for (const Probe& p : scene.probes) {
     json probe{{"name", p.name}, {"type", p.type}, {"at", vec(p.at)}, {"direction", vec(p.direction)}};
     if (p.type == "force" || p.type == "body" || !p.obstacle.empty()) probe["obstacle"] = p.obstacle;
+    if (p.type == "pressure" && p.radius > 0) {
+      probe["radius"] = p.radius;
+      probe["normal"] = vec(p.normal);
+    }
     probes.push_back(probe);
   }
 
@@ -975,6 +1016,8 @@ void setJsonPath(json& root, const std::string& path, const std::string& text, c
     value = json::parse(text);
   } catch (const json::parse_error&) {
     value = text;
+  } catch (const json::out_of_range&) {
+    throw InputError(label + " " + path + "=" + text + ": the number overflows a double");
   }
   setJsonPath(root, path, value, label, mustExist);
 }
@@ -990,6 +1033,12 @@ json readJsonFile(const fs::path& file) {
     // nlohmann's message: "[json.exception.parse_error.101] parse error at line 3, column 5: ..."
     std::string message = parseError.what();
     const auto at = message.find("parse error");
+    if (at != std::string::npos) message = message.substr(at);
+    throw InputError(file.string() + ": invalid JSON: " + message);
+  } catch (const json::out_of_range& overflow) {
+    // "[json.exception.out_of_range.406] number overflow parsing '1e999'"
+    std::string message = overflow.what();
+    const auto at = message.find("number overflow");
     if (at != std::string::npos) message = message.substr(at);
     throw InputError(file.string() + ": invalid JSON: " + message);
   }

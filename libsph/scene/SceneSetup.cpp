@@ -116,6 +116,8 @@ SimulationSettings simulationSettings(const Scene& scene) {
                          : s.pressureForce == "mueller_half" ? PressureForce::MuellerHalf
                                                              : PressureForce::Hamiltonian;
   solver.surfaceLayerPressure = s.surfaceLayerPressure;
+  solver.density = s.density == "continuity" ? DensityEvolution::Continuity : DensityEvolution::Summation;
+  solver.densityDiffusion = Real(s.densityDiffusion);
   solver.artificialViscosity = Real(s.artificialViscosity);
   solver.artificialViscosityAllPairs = s.artificialViscosityAllPairs;
   solver.expectedSpeed = Real(s.expectedSpeed);

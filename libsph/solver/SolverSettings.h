@@ -60,6 +60,17 @@ enum class KernelPair {
   WendlandC2,
 };
 
+/// How WCSPH gets each particle's density.
+enum class DensityEvolution {
+  /// Summed every step over the neighbours, SEED (4) (with the mirror particles).
+  Summation,
+  /// Integrated from the continuity equation, drho_i/dt = sum_j m (v_i - v_j) . grad W_ij
+  /// (Monaghan 1992, eq. 2.17), mirrors included, plus the density diffusion term
+  /// (SolverSettings::densityDiffusion). The free surface keeps rho_0 instead of the
+  /// summation's deficit, so no surface-layer pressure is needed.
+  Continuity,
+};
+
 struct SolverSettings {
   std::string type = "wcsph";        ///< time-step strategy: "wcsph" (SEED); later "dfsph"
   Real supportRadiusFactor = Real(2);  ///< support radius h = factor * spacing
@@ -108,6 +119,13 @@ struct SolverSettings {
   /// sqrt(|g| H) at the default c = 10 sqrt(2 |g| H)), which artificial
   /// viscosity damps only slowly.
   bool hydrostaticStart = true;
+  /// WCSPH density: summation (SEED (4)) or continuity (DensityEvolution).
+  DensityEvolution density = DensityEvolution::Summation;
+  /// delta of the delta-SPH density diffusion term with continuity density,
+  /// delta h c_0 lap(rho) (Molteni & Colagrossi 2009, h the smoothing length, half the
+  /// support radius), less its hydrostatic part (Fourtakas et al. 2019), so water at
+  /// rest stays at rest. 0 = off; 0.1 is the value of both papers.
+  Real densityDiffusion = Real(0.1);
 
   /// The largest speed the scene is expected to produce, m/s. 0: the free-fall
   /// speed sqrt(2 |g| H) over the height H from the lowest boundary (or fluid)

@@ -425,6 +425,18 @@ Real valueShape(const KernelConstants& k, Real r2) {
   return 0;
 }
 
+/// g with grad W(r) = g r_vec for the density kernel W (0 < |r| < h): the
+/// derivative of the summed density, for the continuity equation.
+Real densityGradient(const KernelConstants& k, Real r2) {
+  if (k.pair == KernelPair::Mueller2003) {
+    const Real d = k.supportRadius2 - r2;  // poly6: grad (h^2 - r^2)^3 = -6 (h^2 - r^2)^2 r_vec
+    return Real(-6) * k.valueCoeff * d * d;
+  }
+  const Real len = std::sqrt(r2);
+  return k.gradientCoeff * (k.pair == KernelPair::CubicSpline ? gradientShape<KernelPair::CubicSpline>(k, len)
+                                                              : gradientShape<KernelPair::WendlandC2>(k, len));
+}
+
 /// The kernel pair with its lattice normalisation (cached in the workspace):
 /// the density scale makes the rest lattice of the fluid spacing exactly rho_0
 /// (the SEED pair: the particle mass, derived from poly6 the same way), and the
@@ -492,7 +504,7 @@ bool isOrthogonal(const Eigen::Matrix<Real, 3, 3>& linear) {
 
 namespace wcsph {
 
-void computeFluidDensity(StepContext& c, Workspace& workspace) {
+void gatherPairInputs(StepContext& c, Workspace& workspace) {
   Particles& particles = c.particles;
   const std::size_t n = particles.size();
   workspace.particles.resize(n);
@@ -509,8 +521,16 @@ void computeFluidDensity(StepContext& c, Workspace& workspace) {
       records[i].vz = v.z();
     }
   });
+  kernelNormalisation(c, workspace);
+}
+
+void computeFluidDensity(StepContext& c, Workspace& workspace) {
+  gatherPairInputs(c, workspace);
+  Particles& particles = c.particles;
+  const std::size_t n = particles.size();
+  const PairInput* records = workspace.particles.data();
   const KernelConstants kernel(c.settings.solver.kernels, c.constants.supportRadius);
-  const Real scale = kernelNormalisation(c, workspace).densityScale;
+  const Real scale = workspace.normalisation.densityScale;
   const Real self = valueShape(kernel, 0);
   const NeighborLists& nl = c.neighbors;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const auto& range) {
@@ -568,7 +588,8 @@ void computePressure(StepContext& c, Workspace& workspace) {
   PairInput* records = workspace.particles.data();
   // Surface layer (SolverSettings::surfaceLayerPressure): p >= rho_0 |g| s / 2 for
   // particles of a water body (rho >= 0.8 rho_0), not for spray.
-  const bool surfaceLayer = c.settings.solver.surfaceLayerPressure && model.clampNegative;
+  const bool surfaceLayer = c.settings.solver.surfaceLayerPressure && model.clampNegative &&
+                            c.settings.solver.density == DensityEvolution::Summation;
   const Real surfacePressure = surfaceLayer ? Real(0.5) * c.settings.fluid.restDensity *
                                                   c.settings.solver.gravity.norm() * c.settings.fluid.spacing
                                             : Real(0);
@@ -580,6 +601,76 @@ void computePressure(StepContext& c, Workspace& workspace) {
         particles.pressure[i] = std::max(particles.pressure[i], surfacePressure);
       records[i].pressure = particles.pressure[i];
       records[i].density = particles.density[i];
+    }
+  });
+}
+
+void computeDensityRate(StepContext& c, Workspace& workspace) {
+  const std::size_t n = c.particles.size();
+  workspace.densityRate.resize(n);
+  Real* rate = workspace.densityRate.data();
+  const KernelConstants kernel(c.settings.solver.kernels, c.constants.supportRadius);
+  const Real mass = workspace.normalisation.densityScale;  // m of SEED (4)
+  const Real h2 = kernel.supportRadius2;
+  // 2 delta h c_0, h the smoothing length (half the support radius)
+  const Real diffusion = Real(2) * c.settings.solver.densityDiffusion * Real(0.5) * kernel.supportRadius *
+                         c.constants.speedOfSound;
+  // rho^H_i - rho^H_j = rho_0 g . x_ij / c_0^2 (Fourtakas et al. 2019, linearised EOS)
+  const Vec3r hydrostatic = (c.settings.fluid.restDensity / c.constants.stiffness) * c.settings.solver.gravity;
+  const PairInput* records = workspace.particles.data();
+  const NeighborLists& nl = c.neighbors;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const PairInput& p = records[i];
+      Real divergence = 0, laplacian = 0;
+      for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j) {
+        const PairInput& q = records[*j];
+        const Vec3r r(p.x - q.x, p.y - q.y, p.z - q.z);
+        const Real r2 = r.squaredNorm();
+        if (r2 >= h2 || r2 <= Real(0)) continue;
+        const Real g = densityGradient(kernel, r2);  // grad W_ij = g x_ij
+        divergence += g * ((p.vx - q.vx) * r.x() + (p.vy - q.vy) * r.y() + (p.vz - q.vz) * r.z());
+        laplacian += g * (p.density - q.density - hydrostatic.dot(r)) / q.density;
+      }
+      rate[i] = mass * (divergence + diffusion * laplacian);
+    }
+  });
+  // The mirror images (as addMirrorDensity sums them): the same continuity sum.
+  const BoundaryParticles& boundary = c.boundary;
+  if (boundary.mirrors().empty()) return;
+  const std::vector<std::uint32_t>& layer = boundary.layer();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, layer.size(), 256), [&](const auto& range) {
+    for (std::size_t k = range.begin(); k != range.end(); ++k) {
+      const std::uint32_t i = layer[k];
+      const PairInput& p = records[i];
+      const Vec3r xi(p.x, p.y, p.z), vi(p.vx, p.vy, p.vz);
+      Real sum = 0;
+      auto add = [&](const Vec3r& x, const Vec3r& v, const Vec3r& y, const Vec3r& u) {
+        const Vec3r r = x - y;
+        const Real r2 = r.squaredNorm();
+        if (r2 < h2 && r2 > Real(0)) sum += densityGradient(kernel, r2) * (v - u).dot(r);
+      };
+      for (std::uint32_t m = boundary.mirrorOffsets()[i]; m < boundary.mirrorOffsets()[i + 1]; ++m) {
+        const MirrorMap& map = boundary.mirrors()[m];
+        add(xi, vi, map.apply(xi), map.imageVelocity(vi, false));
+        if (isOrthogonal(map.linear) && !map.frontOnly) {
+          // x_i - (M x_j + o) = M (y - x_j), v_i - (w + M (v_j - w)) = M (u - v_j): the fluid
+          // sum around y = M^T (x_i - o), u = M^T (v_i - w) + w.
+          const Vec3r y = map.linear.transpose() * (xi - map.offset);
+          const Vec3r u = map.linear.transpose() * (vi - map.wallVelocity) + map.wallVelocity;
+          for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j) {
+            const PairInput& q = records[*j];
+            add(y, u, Vec3r(q.x, q.y, q.z), Vec3r(q.vx, q.vy, q.vz));
+          }
+        } else {
+          for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j) {
+            const PairInput& q = records[*j];
+            const Vec3r xj(q.x, q.y, q.z);
+            if (!map.behind(xi, xj)) add(xi, vi, map.apply(xj), map.imageVelocity(Vec3r(q.vx, q.vy, q.vz), false));
+          }
+        }
+      }
+      rate[i] += mass * sum;
     }
   });
 }
@@ -762,6 +853,24 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
     }
 }
 
+void integrateContinuityDensity(StepContext& c, Workspace& workspace, Real dt) {
+  Particles& particles = c.particles;
+  PairInput* records = workspace.particles.data();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles.size(), 4096), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const Vec3r& v = particles.velocity[i];
+      records[i].vx = v.x();
+      records[i].vy = v.y();
+      records[i].vz = v.z();
+    }
+  });
+  computeDensityRate(c, workspace);
+  const Real* rate = workspace.densityRate.data();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles.size(), 4096), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) particles.density[i] += dt * rate[i];
+  });
+}
+
 Real integrateSymplecticEuler(StepContext& c, Real dt) {
   Particles& particles = c.particles;
   const std::vector<Vec3r>& acceleration = c.acceleration;
@@ -793,15 +902,18 @@ bool allowVectorPairLoops(bool allowed) {
 } // namespace wcsph
 
 void TimeStepWCSPH::advance(StepContext& c, Real dt) {
+  const bool continuity = c.settings.solver.density == DensityEvolution::Continuity;
   auto start = Clock::now();
-  wcsph::computeFluidDensity(c, mWorkspace);
-  c.timings.density += millisecondsSince(start);
-
-  start = Clock::now();
-  wcsph::addMirrorDensity(c, mWorkspace);
-  c.timings.boundary += millisecondsSince(start);
-
-  start = Clock::now();
+  if (continuity) {
+    wcsph::gatherPairInputs(c, mWorkspace);
+  } else {
+    wcsph::computeFluidDensity(c, mWorkspace);
+    c.timings.density += millisecondsSince(start);
+    start = Clock::now();
+    wcsph::addMirrorDensity(c, mWorkspace);
+    c.timings.boundary += millisecondsSince(start);
+    start = Clock::now();
+  }
   wcsph::computePressure(c, mWorkspace);
   c.timings.density += millisecondsSince(start);
 
@@ -817,6 +929,13 @@ void TimeStepWCSPH::advance(StepContext& c, Real dt) {
   start = Clock::now();
   c.maxAcceleration = wcsph::integrateSymplecticEuler(c, dt);
   c.timings.integrate += millisecondsSince(start);
+  if (continuity) {
+    // The density moves with the new velocity, as the positions do (symplectic Euler:
+    // with the old velocity the acoustic modes grow every step).
+    start = Clock::now();
+    wcsph::integrateContinuityDensity(c, mWorkspace, dt);
+    c.timings.density += millisecondsSince(start);
+  }
 }
 
 } // namespace cascade

@@ -1,7 +1,8 @@
 /// @file TimeStepWCSPH.h
 /// @brief The SEED's weakly compressible SPH step (Mueller et al. 2003 with
 ///        the SEED's corrections):
-///        density SEED (4); pressure from SEED (10) or Tait; pressure force
+///        density SEED (4), or the continuity equation with delta-SPH density
+///        diffusion (SolverSettings::density); pressure from SEED (10) or Tait; pressure force
 ///        SEED (5); viscosity SEED (6) with the viscosity Laplacian (9);
 ///        optional Monaghan (1992) artificial viscosity; gravity and the
 ///        boundary forces (SEED (15)): type I repulsion SEED (11) and type II
@@ -53,6 +54,7 @@ struct KernelNormalisation {
 /// Scratch the passes keep between steps.
 struct Workspace {
   std::vector<PairInput> particles;
+  std::vector<Real> densityRate;  ///< drho/dt of the continuity density, kg/m^3/s
   KernelNormalisation normalisation;
 };
 } // namespace wcsph
@@ -80,9 +82,22 @@ private:
 
 /// Shared passes (also usable by other strategies and benchmarks).
 namespace wcsph {
+/// Fills the positions and velocities of workspace.particles.
+void gatherPairInputs(StepContext& context, Workspace& workspace);
 /// SEED (4): rho_i = m (W(0) + sum_j W(x_ij)) over fluid neighbours; fills
 /// the positions and velocities of workspace.particles.
 void computeFluidDensity(StepContext& context, Workspace& workspace);
+/// Continuity density (DensityEvolution::Continuity): workspace.densityRate =
+/// sum_j m (v_i - v_j) . grad W_ij (Monaghan 1992, eq. 2.17) plus the delta-SPH diffusion
+/// 2 delta h c_0 sum_j m / rho_j (rho_ij - rho0 g . x_ij / c_0^2) (x_ij . grad W_ij) / |x_ij|^2
+/// (Molteni & Colagrossi 2009, with the hydrostatic part removed: Fourtakas et al. 2019),
+/// over fluid pairs; then the mirror images' sum_j m (v_i - v'_j) . grad W(x_i - x'_j)
+/// for the boundary layer (the images' kinematic velocity w + M (v_j - w)).
+/// Reads positions, velocities and densities from workspace.particles.
+void computeDensityRate(StepContext& context, Workspace& workspace);
+/// After integrateSymplecticEuler: rho_i += dt drho_i/dt at the step's start positions
+/// and the new velocities (the records' positions and densities, the particles' velocities).
+void integrateContinuityDensity(StepContext& context, Workspace& workspace, Real dt);
 /// Adds the mirror particles' density to the boundary layer.
 void addMirrorDensity(StepContext& context, const Workspace& workspace);
 /// SEED (10) or Tait for every particle; fills the pressures and densities of

@@ -256,6 +256,15 @@ TEST_F(Bake, SurfaceWritesAPlyWithVelocitiesThatInspectAndRenderRead) {
   fs::remove_all(out);
 }
 
+TEST(Cli, VersionNamesCascadeAndItsLibraries) {
+  const fs::path log = freshDir("version").string() + ".log";
+  EXPECT_EQ(run({"--version"}, log), 0);
+  const std::string text = readLog(log);
+  EXPECT_EQ(text.rfind("cascade " CASCADE_PROJECT_VERSION, 0), 0u) << text;
+  for (const char* library : {"OpenVDB 10.", "oneTBB", "Eigen 3.", "CGAL 5.", "assimp 5.", "OSMesa", "libpng"})
+    EXPECT_NE(text.find(library), std::string::npos) << library << " missing from\n" << text;
+}
+
 TEST(Cli, AMistypedSubcommandIsNamedWithTheNearest) {
   const fs::path log = freshDir("mistyped").string() + ".log";
   EXPECT_EQ(run({"surfce", "out/x"}, log), 2);

@@ -62,6 +62,10 @@ FloatScene makeFloatScene(const std::string& solver, double density, double spac
   settings.fluid.spacing = Real(spacing);
   settings.solver.type = solver;
   if (std::getenv("CASCADE_FLOAT_NO_REPULSION")) settings.boundary.repulsionParticles = false;
+  if (const char* v = std::getenv("CASCADE_FLOAT_WCSPH_DENSITY"); v && std::string(v) == "summation")
+    settings.solver.density = DensityEvolution::Summation;
+  else if (v && std::string(v) == "continuity")
+    settings.solver.density = DensityEvolution::Continuity;
   FloatScene scene;
   scene.sim = std::make_unique<Simulation>(settings);
   scene.sim->addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(Real(side), Real(side), Real(2.5 * depth))));

@@ -72,4 +72,33 @@ TEST(PointProbes, GridNeighbourhoodsAreExactAndThePressureMatchesTheFullPass) {
   }
 }
 
+// A transducer face (pressureOverDisc) on a field p = A y^2 (no gravity): each point's
+// Shepard average is A (y^2 + sigma^2), sigma^2 the kernel's second moment, so the face
+// reads A (y_c^2 + R^2 / 4 + sigma^2), R^2 / 4 above the point probe at its centre (the
+// disc rule is exact for quadratics). Where a point of the face has no water within h it
+// reads 0, as a dry part of a transducer's face does.
+TEST(PointProbes, ATransducerFaceAveragesThePressureOverItsDisc) {
+  const Vec3r centre(0, 0, 0);
+  Particles fluid = lattice(centre, 15, 0.01f, Vec3r::Zero(), Eigen::Matrix<Real, 3, 3>::Zero());
+  const double a = 1e5;  // Pa/m^2
+  for (std::size_t i = 0; i < fluid.size(); ++i) fluid.pressure[i] = Real(a * fluid.position[i].y() * fluid.position[i].y());
+  const Real h = 0.02f, radius = 0.02f;
+  const Vec3r face(0, 0.005f, 0), normal(1, 0, 0), gravity = Vec3r::Zero();
+  NeighborLists near = probeNeighborhoods(fluid, {face}, h + radius);
+  const double point = pressureAt(fluid, face, h, gravity, near.begin(0), near.end(0));
+  const double disc = pressureOverDisc(fluid, face, normal, radius, h, gravity, near.begin(0), near.end(0));
+  EXPECT_NEAR(disc - point, a * radius * radius / 4, 0.03 * a * radius * radius / 4);  // 1.7 %: lattice discreteness
+  EXPECT_DOUBLE_EQ(pressureOverDisc(fluid, face, normal, 0, h, gravity, near.begin(0), near.end(0)), point);
+
+  // A uniform 2 kPa, a face of radius 4 cm centred on the lattice's last plane x = 0.07.
+  for (Real& p : fluid.pressure) p = Real(2000);
+  const Vec3r edge(0.07f, 0, 0);
+  near = probeNeighborhoods(fluid, {edge}, h + Real(0.04));
+  // In that plane (normal x) every point of it is wet.
+  EXPECT_NEAR(pressureOverDisc(fluid, edge, normal, Real(0.04), h, gravity, near.begin(0), near.end(0)), 2000, 1e-3);
+  // Across it (normal z), two of the six ring points lie 2.8 cm past the water (> h): 6/8 of it.
+  EXPECT_NEAR(pressureOverDisc(fluid, edge, Vec3r(0, 0, 1), Real(0.04), h, gravity, near.begin(0), near.end(0)),
+              1500, 1e-3);
+}
+
 } // namespace cascade::test

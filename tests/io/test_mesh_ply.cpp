@@ -56,7 +56,7 @@ TEST(MeshPly, RoundTripKeepsVerticesNormalsVelocitiesAndFaces) {
   EXPECT_EQ(back.normals, mesh.normals);
   EXPECT_EQ(back.velocities, mesh.velocities);
   EXPECT_EQ(back.triangles, mesh.triangles);
-  ASSERT_EQ(comments.size(), 3u);
+  ASSERT_EQ(comments.size(), 4u);  // "Cascade surface mesh", ours, then "written by cascade ..."
   EXPECT_EQ(comments[1], "up: z (scene coordinates)");
   // Binary: 36 bytes per vertex (9 floats) and 13 per triangle, plus the header.
   const auto size = fs::file_size(dir / "mesh.ply");
@@ -133,7 +133,7 @@ TEST(MeshPly, AHeaderOnlyReaderSeesTheElementsAndComments) {
   EXPECT_EQ(header.elements()[0].count, mesh.vertices.size());
   EXPECT_EQ(header.elements()[1].name, "face");
   EXPECT_EQ(header.elements()[1].count, mesh.triangles.size());
-  ASSERT_EQ(header.comments().size(), 2u);
+  ASSERT_EQ(header.comments().size(), 3u);
   EXPECT_EQ(header.comments()[1], "up: y");
   std::ofstream(dir / "text.ply") << "this is not a PLY file\n";
   EXPECT_THROW(PlyReader(dir / "text.ply", true), InputError);

@@ -170,6 +170,54 @@ TEST(SceneJson, OutOfRangeAndChoices) {
             "scene.json: probes[0].obstacle: no obstacle named \"towr\"");
 }
 
+// A pressure probe's sensor face: its radius, and the normal of the tank wall it sits on
+// (or its own); written out and read back; a face off every wall without a normal is named.
+TEST(SceneJson, PressureProbeFaceTakesItsWallsNormal) {
+  const char* text = R"({"name": "t", "fluid": {"spacing": 0.01, "blocks": [{"min": [0,0,0], "max": [0.5,0.2,0.2]}]},
+                         "boundaries": {"tank": {"min": [0,0,0], "max": [1,0.2,0.5]}},
+                         "probes": [{"name": "P", "type": "pressure", "at": [1, 0.1, 0.015], "radius": 0.004},
+                                    {"name": "F", "type": "pressure", "at": [0.3, 0.1, 0.0], "radius": 0.004},
+                                    {"name": "N", "type": "pressure", "at": [0.3, 0.1, 0.1], "radius": 0.002,
+                                     "normal": [0, 1, 0]},
+                                    {"name": "Q", "type": "pressure", "at": [0.3, 0.1, 0.1]}]})";
+  const scene::Scene scene = scene::parseScene(nlohmann::json::parse(text), "scene.json", ".");
+  ASSERT_EQ(scene.probes.size(), 4u);
+  EXPECT_EQ(scene.probes[0].radius, 0.004);
+  EXPECT_EQ(scene.probes[0].normal, (scene::Vec3{-1, 0, 0}));  // the far wall x = 1, facing the water
+  EXPECT_EQ(scene.probes[1].normal, (scene::Vec3{0, 0, 1}));   // the floor
+  EXPECT_EQ(scene.probes[2].normal, (scene::Vec3{0, 1, 0}));   // its own
+  EXPECT_EQ(scene.probes[3].radius, 0.0);                      // a point
+  const scene::Scene back = scene::parseScene(scene::sceneToJson(scene), "OUT/scene.json", ".");
+  EXPECT_EQ(back.probes[0].normal, scene.probes[0].normal);
+  EXPECT_EQ(back.probes[1].radius, 0.004);
+  EXPECT_EQ(loadError(R"({"name": "t", "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]},
+                          "probes": [{"name": "P", "type": "pressure", "at": [0.5, 0.5, 0.5], "radius": 0.01}]})"),
+            "scene.json: probes[0].normal: a pressure probe with a radius needs the sensor face's normal (its centre "
+            "is not on a tank wall)");
+  EXPECT_EQ(loadError(R"({"name": "t", "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]},
+                          "probes": [{"name": "P", "type": "pressure", "at": [0.5, 0.5, 0.5], "radius": -1}]})"),
+            "scene.json: probes[0].radius: must be >= 0 (got -1)");
+}
+
+// Numbers beyond any shot (a typo, a unit mistake) are named, as are numbers a double
+// cannot hold, in the file and in --set: never a NaN in the solver or the camera.
+TEST(SceneJson, AbsurdAndOverflowingNumbersAreNamed) {
+  const std::string fluid = R"("fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]})";
+  EXPECT_EQ(loadError(R"({"name": "t", "camera": {"position": [1e30, 0, 0]}, )" + fluid + "}"),
+            "scene.json: camera.position[0]: absurd magnitude (got 1e+30; at most 1e+06)");
+  EXPECT_EQ(loadError(R"({"name": "t", "gravity": [0, 0, -1e5], )" + fluid + "}"),
+            "scene.json: gravity: absurd magnitude (|g| = 100000 m/s^2; at most 1000)");
+  EXPECT_EQ(loadError(R"({"name": "t", "solver": {"stiffness": 1e12}, )" + fluid + "}"),
+            "scene.json: solver.stiffness: absurd magnitude (got 1e+12; at most 1e+09)");
+  EXPECT_EQ(loadError(R"({"name": "t", "probes": [{"name": "P", "type": "pressure", "at": [0, 0, 1e7]}], )" + fluid +
+                      "}"),
+            "scene.json: probes[0].at[2]: absurd magnitude (got 1e+07; at most 1e+06)");
+  EXPECT_EQ(loadError(R"({"name": "t", "lights": [{"type": "directional", "intensity": 1e999}], )" + fluid + "}"),
+            "scene.json: invalid JSON: number overflow parsing '1e999'");
+  EXPECT_EQ(loadError(std::string(kMinimal), {"fluid.spacing=1e999"}),
+            "--set fluid.spacing=1e999: the number overflows a double");
+}
+
 TEST(SceneJson, SurfaceSettingsAreReadCheckedAndWritten) {
   const scene::Scene scene = scene::parseScene(
       nlohmann::json::parse(R"({"name": "t", "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]},

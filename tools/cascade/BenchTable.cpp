@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 #include <stdexcept>
@@ -25,6 +26,7 @@ namespace {
 std::string toText(const BenchTable::Value& value) {
   if (const auto* text = std::get_if<std::string>(&value)) return *text;
   if (const auto* integer = std::get_if<long long>(&value)) return std::to_string(*integer);
+  if (!std::isfinite(std::get<double>(value))) return "-";  // not measured in this row (JSON: null)
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%.4g", std::get<double>(value));
   return buffer;

@@ -8,6 +8,9 @@
 
 namespace cascade::cli {
 
+/// `cascade --version`: ours and the libraries' versions (version.cpp).
+std::string versionText();
+
 void addBakeCommand(CLI::App& app);
 void addSurfaceCommand(CLI::App& app);
 void addWhitewaterCommand(CLI::App& app);

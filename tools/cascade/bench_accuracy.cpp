@@ -15,6 +15,17 @@
 //    and the compression mean(max(rho/rho_0 - 1, 0)) (average) and
 //    max(rho/rho_0 - 1) (maximum), all averaged (the maximum: maximal) over the
 //    samples of the last kSampleWindow.
+//  - lobovsky, Lobovsky et al. (2014), H = 300 mm: scenes/lobovsky.json at spacing s,
+//    run to t/T = 7 (T = sqrt(H/g)); its sensor-2 probe (a face of the scene's radius,
+//    Probes.h pressureOverDisc) sampled every 0.5 ms, raw (no filter), against the
+//    experiment's 2.5/50/97.5 percentile band (scenes/validation/): peak_err, the first
+//    impact's peak against the median's (onset at half the median's peak, peak within
+//    0.25 T), as a signed fraction, of the probe's 5 ms centred moving average (a
+//    transducer's response time; peak_err_raw: of the raw samples); peak_time_err, its
+//    time error in T; band_fraction,
+//    the samples within the band over t/T in [2.3, 7]; noise, the RMS of (raw - its 5 ms
+//    centred moving average) over t/T in [3, 7], in rho g H. Spacings from
+//    CASCADE_ACCURACY_LOBOVSKY (m, default "0.01,0.005"; "none" skips the case).
 // Errors are fractions (0.03 = 3 %). front_rms and height_rms compare with the
 // experiment's own time origin (raw). front_rms_release and height_rms_release
 // compare with its time origin moved by kReleaseShift (T = 0.175, the correction
@@ -37,13 +48,18 @@
 // CASCADE_ACCURACY_DENSITY_TOLERANCE (DFSPH), CASCADE_ACCURACY_TANK_ONLY=1 (no dam break),
 // CASCADE_ACCURACY_CURVES=DIR (created; writes DIR/<solver>_<a/s>.dat: t, Z, T, H, tau per sample),
 // CASCADE_ACCURACY_TIME_SHIFT=T0 (the release columns' shift in the surge table's T units,
-// default 0.175).
+// default 0.175), CASCADE_ACCURACY_DENSITY=summation|continuity (WCSPH's density),
+// CASCADE_ACCURACY_LOBOVSKY_SET="key=value;key=value" (scene overrides of the Lobovsky case).
+// The plots: the dam break's error against wall time (--plot, or next to the JSON), and
+// the Lobovsky sensor against the band, raw and 5 ms averaged ("-lobovsky" added to the name).
 #include "Benchmarks.h"
 
 #include "libsph/Errors.h"
 #include "libsph/boundary/BoxBoundary.h"
 #include "libsph/probes/ExperimentComparison.h"
 #include "libsph/probes/Probes.h"
+#include "libsph/scene/SceneJson.h"
+#include "libsph/scene/SceneSetup.h"
 #include "libsph/solver/Simulation.h"
 #include "libsph/solver/TimeStepDFSPH.h"
 
@@ -112,6 +128,12 @@ SimulationSettings settingsFor(const std::string& solver, double spacing) {
   if (const char* v = std::getenv("CASCADE_ACCURACY_VISCOSITY"); v && *v) settings.fluid.viscosity = Real(std::stod(v));
   if (const char* v = std::getenv("CASCADE_ACCURACY_DENSITY_TOLERANCE"); v && *v)
     settings.solver.densityTolerance = Real(std::stod(v));
+  if (const char* v = std::getenv("CASCADE_ACCURACY_DENSITY"); v && *v)
+    settings.solver.density = std::string(v) == "continuity" ? DensityEvolution::Continuity : DensityEvolution::Summation;
+  if (const char* v = std::getenv("CASCADE_ACCURACY_DENSITY_DIFFUSION"); v && *v)
+    settings.solver.densityDiffusion = Real(std::stod(v));
+  if (const char* v = std::getenv("CASCADE_ACCURACY_CLAMP"); v && *v)
+    settings.solver.clampNegativePressure = std::string(v) != "0";
   if (const char* v = std::getenv("CASCADE_ACCURACY_SLIP"); v && *v) {
     const std::string slip = v;
     settings.boundary.slip = slip == "no" ? MirrorSlip::NoSlip : slip == "free" ? MirrorSlip::FreeSlip : MirrorSlip::LaminarWallShear;
@@ -139,6 +161,21 @@ double releaseShift() {
   return shift;
 }
 
+/// Steps `sim` to endTime, calling sample() at the start and after the first step that
+/// reaches each multiple of `interval`.
+template <typename Sample>
+void stepSampling(Simulation& sim, double endTime, double interval, Sample&& sample) {
+  sample();
+  double next = interval;
+  while (sim.time() < endTime) {
+    sim.step();
+    if (sim.time() >= next - 1e-12) {
+      sample();
+      next = (std::floor(sim.time() / interval + 1e-9) + 1) * interval;
+    }
+  }
+}
+
 void runDamBreak(Row& row) {
   const auto start = Clock::now();
   const std::clock_t cpuStart = std::clock();
@@ -152,15 +189,7 @@ void runDamBreak(Row& row) {
     front.emplace_back(sim.time(), surgeFront(positions, Vec3r::UnitX(), Real(s)) / kA);
     height.emplace_back(sim.time(), waterHeight(positions, 0.003, 0.5 * width, Real(s)) / (2 * kA));
   };
-  sample();
-  double next = kSampleInterval;
-  while (sim.time() < kEndTime) {
-    sim.step();
-    if (sim.time() >= next - 1e-12) {
-      sample();
-      next = (std::floor(sim.time() / kSampleInterval + 1e-9) + 1) * kSampleInterval;
-    }
-  }
+  stepSampling(sim, kEndTime, kSampleInterval, sample);
   row.wall = secondsSince(start);
   row.cpu = double(std::clock() - cpuStart) / CLOCKS_PER_SEC;
   row.steps = double(sim.stepCount());
@@ -222,16 +251,75 @@ void runHydrostatic(Row& row) {
   row.hydroWall = secondsSince(start);
 }
 
-std::vector<std::string> listFromEnvironment(const char* name, std::vector<std::string> fallback) {
+/// The items of an environment variable's list (`fallback` if it is unset or empty).
+std::vector<std::string> listFromEnvironment(const char* name, std::vector<std::string> fallback, char separator = ',');
+
+// Lobovsky et al. (2014), H = 300 mm: the scene, its sensor and the experiment's band.
+constexpr double kLobovskyDepth = 0.3;             // m, H
+constexpr double kLobovskyEndTime = 7.0;           // t / T
+constexpr double kLobovskySampleInterval = 5e-4;   // s
+constexpr const char* kLobovskySensor = "P2";
+const char* const kLobovskyBand = "/scenes/validation/lobovsky2014_H300_sensor2_percentiles.csv";
+
+struct ImpactRow {
+  std::string solver;
+  double spacing = 0;
+  long long fluid = 0;
+  double wall = 0, cpu = 0, steps = 0;
+  BandComparison comparison;
+  TimeSeries series;  // t / T, p / (rho g H)
+};
+
+void runLobovsky(ImpactRow& row, const PercentileBand& band) {
+  const auto start = Clock::now();
+  const std::clock_t cpuStart = std::clock();
+  char spacing[32];
+  std::snprintf(spacing, sizeof spacing, "%.9g", row.spacing);
+  std::vector<std::string> sets = {"solver.type=" + row.solver, std::string("fluid.spacing=") + spacing};
+  if (const char* v = std::getenv("CASCADE_ACCURACY_DENSITY"); v && *v && row.solver == "wcsph")
+    sets.push_back(std::string("solver.density=") + v);
+  for (const std::string& set : listFromEnvironment("CASCADE_ACCURACY_LOBOVSKY_SET", {}, ';')) sets.push_back(set);
+  const scene::Scene scene = scene::loadScene(std::string(CASCADE_SOURCE_DIR) + "/scenes/lobovsky.json", sets);
+  Simulation sim(scene::simulationSettings(scene));
+  scene::setUpSimulation(scene, sim, nullptr);
+  row.fluid = static_cast<long long>(sim.particles().size());
+  const auto sensor = std::find_if(scene.probes.begin(), scene.probes.end(),
+                                   [](const scene::Probe& p) { return p.name == kLobovskySensor; });
+  if (sensor == scene.probes.end()) throw InputError("scenes/lobovsky.json: no probe named P2");
+  const Vec3r at(Real(sensor->at[0]), Real(sensor->at[1]), Real(sensor->at[2]));
+  const Vec3r normal(Real(sensor->normal[0]), Real(sensor->normal[1]), Real(sensor->normal[2]));
+  const double g = sim.settings().solver.gravity.norm();
+  const double period = std::sqrt(kLobovskyDepth / g);                            // T
+  const double scale = double(sim.settings().fluid.restDensity) * g * kLobovskyDepth;  // rho g H
+  const Real reach = sim.supportRadius() + Real(sensor->radius);
+  auto sample = [&] {
+    const NeighborLists near = probeNeighborhoods(sim.particles(), {at}, reach);
+    const double p = pressureOverDisc(sim.particles(), at, normal, Real(sensor->radius), sim.supportRadius(),
+                                      sim.settings().solver.gravity, near.begin(0), near.end(0));
+    row.series.emplace_back(sim.time() / period, p / scale);
+  };
+  stepSampling(sim, kLobovskyEndTime * period, kLobovskySampleInterval, sample);
+  row.wall = secondsSince(start);
+  row.cpu = double(std::clock() - cpuStart) / CLOCKS_PER_SEC;
+  row.steps = double(sim.stepCount());
+  row.comparison = compareWithBand(row.series, band);
+}
+
+std::vector<std::string> listFromEnvironment(const char* name, std::vector<std::string> fallback, char separator) {
   const char* value = std::getenv(name);
   if (!value || !*value) return fallback;
   std::vector<std::string> items;
   std::stringstream stream(value);
   std::string item;
-  while (std::getline(stream, item, ','))
+  while (std::getline(stream, item, separator))
     if (!item.empty()) items.push_back(item);
   return items;
 }
+
+/// Runs gnuplot on `plot` (which writes `temp`), renames temp to png (whole or not at all)
+/// and removes `dir`; throws with gnuplot's first error line.
+void runGnuplot(const std::string& plot, const std::filesystem::path& dir, const std::filesystem::path& temp,
+                const std::filesystem::path& png);
 
 /// gnuplot: log-log front RMS error against wall time, one line per solver.
 void writePlot(const std::vector<Row>& rows, const std::filesystem::path& png) {
@@ -269,8 +357,53 @@ void writePlot(const std::vector<Row>& rows, const std::filesystem::path& png) {
     ++style;
   }
   plot << "\n";
+  runGnuplot(plot.str(), dir, temp, png);
+}
+
+/// gnuplot: sensor 2 against the experiment's band, raw and 5 ms averaged, one colour per run.
+void writeImpactPlot(const std::vector<ImpactRow>& rows, const PercentileBand& band, const std::filesystem::path& png) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("cascade_accuracy_impact_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  if (png.has_parent_path()) std::filesystem::create_directories(png.parent_path());
+  const std::filesystem::path temp = png.string() + ".tmp.png";
+  {
+    std::ofstream out(dir / "band.dat");
+    for (std::size_t k = 0; k < band.time.size(); k += 4)  // 5 kHz of the 20 kHz band is plenty to draw
+      out << band.time[k] << ' ' << band.low[k] << ' ' << band.median[k] << ' ' << band.high[k] << '\n';
+  }
+  std::ostringstream plot;
+  plot << "if (strstrt(GPVAL_TERMINALS, 'pngcairo') > 0) { set terminal pngcairo size 1100,650 enhanced font 'sans,11' }"
+          " else { set terminal png size 1100,650 }\n"
+       << "set output '" << temp.string() << "'\n"
+       << "set grid\nset xrange [1.5:7]\nset xlabel 't / T,  T = sqrt(H/g)'\nset ylabel 'p / (rho g H)'\n"
+       << "set title 'Lobovsky et al. (2014), H = 300 mm, sensor 2: raw probe (thin) and 5 ms average (thick)'\n"
+       << "set key top right\n"
+       << "plot '" << (dir / "band.dat").string()
+       << "' using 1:2:4 with filledcurves fc rgb '#d0d0d0' title 'experiment 2.5-97.5 %', '' using 1:3 with lines lc "
+          "rgb '#404040' lw 2 title 'experiment median'";
+  int style = 1;
+  for (const ImpactRow& r : rows) {
+    char name[64];
+    std::snprintf(name, sizeof name, "%s_%g.dat", r.solver.c_str(), r.spacing);
+    const TimeSeries smooth = movingAverage(r.series, BandWindows().noiseWindow);
+    std::ofstream out(dir / name);
+    for (std::size_t k = 0; k < r.series.size(); ++k)
+      out << r.series[k].first << ' ' << r.series[k].second << ' ' << smooth[k].second << '\n';
+    char title[96];
+    std::snprintf(title, sizeof title, "%s, s = %g mm", r.solver.c_str(), 1e3 * r.spacing);
+    plot << ", '" << (dir / name).string() << "' using 1:2 with lines lw 0.5 lc " << style << " notitle, '' using 1:3 "
+         << "with lines lw 2 lc " << style << " title '" << title << "'";
+    ++style;
+  }
+  plot << "\n";
+  runGnuplot(plot.str(), dir, temp, png);
+}
+
+void runGnuplot(const std::string& plot, const std::filesystem::path& dir, const std::filesystem::path& temp,
+                const std::filesystem::path& png) {
   const std::filesystem::path script = dir / "plot.gp";
-  std::ofstream(script) << plot.str();
+  std::ofstream(script) << plot;
   const std::string command = "gnuplot '" + script.string() + "' 2>'" + (dir / "gnuplot.log").string() + "'";
   const int status = std::system(command.c_str());
   if (status != 0 || !std::filesystem::exists(temp)) {
@@ -302,6 +435,7 @@ BenchTable benchAccuracy() {
   for (const std::string& solver : solvers) {
     if (solver != "wcsph" && solver != "dfsph") throw InputError("CASCADE_ACCURACY_SOLVERS: unknown solver '" + solver + "'");
     for (const std::string& resolution : resolutions) {
+      if (resolution == "none") continue;  // the Lobovsky case alone
       const double across = std::stod(resolution);
       if (!(across >= 2 && across <= 400)) throw InputError("CASCADE_ACCURACY_RESOLUTIONS: a / s must be in [2, 400]");
       Row row;
@@ -320,12 +454,45 @@ BenchTable benchAccuracy() {
       rows.push_back(row);
     }
   }
-  BenchTable table("accuracy", {"solver", "spacing", "n_fluid", "wall_s", "front_rms", "height_rms", "pressure_err",
-                                "density_err_avg", "density_err_max", "cpu_s", "steps", "front_rms_release",
-                                "height_rms_release"});
+  // Lobovsky et al. (2014): the shipped scene at each spacing.
+  std::vector<ImpactRow> impacts;
+  const std::vector<std::string> lobovskySpacings = listFromEnvironment("CASCADE_ACCURACY_LOBOVSKY", {"0.01", "0.005"});
+  PercentileBand band;
+  if (!(lobovskySpacings.size() == 1 && lobovskySpacings[0] == "none")) {
+    band = readPercentileBand(std::string(CASCADE_SOURCE_DIR) + kLobovskyBand);
+    for (const std::string& solver : solvers)
+      for (const std::string& text : lobovskySpacings) {
+        ImpactRow row;
+        row.solver = solver;
+        char* end = nullptr;
+        row.spacing = std::strtod(text.c_str(), &end);
+        if (*end != '\0' || !(row.spacing >= 0.001 && row.spacing <= 0.05))
+          throw InputError("CASCADE_ACCURACY_LOBOVSKY: '" + text + "' is not a spacing in [0.001, 0.05] m");
+        runLobovsky(row, band);
+        const BandComparison& c = row.comparison;
+        std::fprintf(stderr,
+                     "bench accuracy: lobovsky %s s = %g m (%lld particles): %.1f s wall (%.1f s CPU), %.0f steps; "
+                     "first peak (5 ms average) %.3f at t/T %.3f (median %.3f at %.3f): %+.1f %%, %+.3f T; raw "
+                     "%.3f at %.3f (%+.1f %%); in band %.1f %%; noise %.3f rho g H\n",
+                     solver.c_str(), row.spacing, row.fluid, row.wall, row.cpu, row.steps, c.peak.value, c.peak.time,
+                     c.reference.value, c.reference.time, 100 * c.peakError, c.peakTimeError, c.rawPeak.value,
+                     c.rawPeak.time, 100 * c.rawPeakError, 100 * c.bandFraction, c.noise);
+        impacts.push_back(std::move(row));
+      }
+  }
+  const double none = std::nan("");
+  BenchTable table("accuracy", {"case", "solver", "spacing", "n_fluid", "wall_s", "front_rms", "height_rms",
+                                "pressure_err", "density_err_avg", "density_err_max", "cpu_s", "steps",
+                                "front_rms_release", "height_rms_release", "peak_err", "peak_time_err",
+                                "band_fraction", "noise", "peak_err_raw"});
   for (const Row& r : rows)
-    table.addRow({r.solver, r.spacing, r.fluid, r.wall, r.frontRms, r.heightRms, r.pressureError, r.densityAvg,
-                  r.densityMax, r.cpu, static_cast<long long>(r.steps), r.frontRmsRelease, r.heightRmsRelease});
+    table.addRow({std::string("dambreak"), r.solver, r.spacing, r.fluid, r.wall, r.frontRms, r.heightRms,
+                  r.pressureError, r.densityAvg, r.densityMax, r.cpu, static_cast<long long>(r.steps),
+                  r.frontRmsRelease, r.heightRmsRelease, none, none, none, none, none});
+  for (const ImpactRow& r : impacts)
+    table.addRow({std::string("lobovsky"), r.solver, r.spacing, r.fluid, r.wall, none, none, none, none, none, r.cpu,
+                  static_cast<long long>(r.steps), none, none, r.comparison.peakError, r.comparison.peakTimeError,
+                  r.comparison.bandFraction, r.comparison.noise, r.comparison.rawPeakError});
   const BenchPaths& paths = benchPaths();
   std::filesystem::path png;
   if (!paths.plot.empty())
@@ -333,9 +500,17 @@ BenchTable benchAccuracy() {
   else if (!paths.json.empty())
     png = std::filesystem::path(paths.json).replace_extension(".png");
   if (!png.empty())
-    table.setFinish([rows, png] {
-      writePlot(rows, png);
-      std::fprintf(stderr, "bench accuracy: plot written to %s\n", png.string().c_str());
+    table.setFinish([rows, impacts, band, png] {
+      if (!rows.empty()) {
+        writePlot(rows, png);
+        std::fprintf(stderr, "bench accuracy: plot written to %s\n", png.string().c_str());
+      }
+      if (!impacts.empty()) {
+        std::filesystem::path impactPng = png;
+        impactPng.replace_filename(png.stem().string() + "-lobovsky" + png.extension().string());
+        writeImpactPlot(impacts, band, impactPng);
+        std::fprintf(stderr, "bench accuracy: plot written to %s\n", impactPng.string().c_str());
+      }
     });
   return table;
 }

@@ -26,7 +26,7 @@ void addBenchCommand(CLI::App& app) {
       ->required()
       ->check(CLI::IsMember({"neighbors", "step", "accuracy", "surface", "render", "bodies", "whitewater"}));
   bench->add_option("--json", options->json, "Also write the table as JSON to FILE");
-  bench->add_option("--plot", options->plot, "accuracy: write the error/run-time plot (PNG) to FILE (default: next to --json)");
+  bench->add_option("--plot", options->plot, "accuracy: write the error/run-time plot (PNG) to FILE, the Lobovsky one to FILE-lobovsky (default: next to --json)");
   bench->callback([options] {
     static const std::map<std::string, BenchTable (*)()> kinds = {
         {"neighbors", benchNeighbors}, {"step", benchStep}, {"accuracy", benchAccuracy},

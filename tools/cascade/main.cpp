@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   CLI::App app{"cascade: SPH water simulation, surfacing and preview rendering"};
   app.name("cascade");
   app.require_subcommand(1);
+  app.set_version_flag("--version", cli::versionText(), "Print the version of cascade and of its libraries");
   cli::addBakeCommand(app);
   cli::addSurfaceCommand(app);
   cli::addWhitewaterCommand(app);
