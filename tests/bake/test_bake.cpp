@@ -20,6 +20,7 @@
 #include <chrono>
 #include <algorithm>
 #include <filesystem>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -263,6 +264,43 @@ TEST(Cli, VersionNamesCascadeAndItsLibraries) {
   EXPECT_EQ(text.rfind("cascade " CASCADE_PROJECT_VERSION, 0), 0u) << text;
   for (const char* library : {"OpenVDB 10.", "oneTBB", "Eigen 3.", "CGAL 5.", "assimp 5.", "OSMesa", "libpng"})
     EXPECT_NE(text.find(library), std::string::npos) << library << " missing from\n" << text;
+}
+
+// docs/cli.md is the in-repo form of the interface users script against: every option
+// `--help` prints, of the program and of each subcommand, is in it, under its subcommand's
+// heading for subcommands.
+TEST(Cli, EveryHelpOptionIsInTheDocs) {
+  const std::string docs = readTextFile(fs::path(CASCADE_SOURCE_DIR) / "docs" / "cli.md");
+  const fs::path log = freshDir("help").string() + ".log";
+  for (const std::string command : {"", "bake", "whitewater", "surface", "render", "run", "bench", "inspect"}) {
+    std::vector<std::string> args;
+    if (!command.empty()) args.push_back(command);
+    args.push_back("--help");
+    ASSERT_EQ(run(args, log), 0) << command;
+    // The subcommand's section of the docs: from its heading to the next one.
+    std::string section = docs;
+    if (!command.empty()) {
+      const std::size_t at = docs.find("### cascade " + command + "\n");
+      ASSERT_NE(at, std::string::npos) << "no section for " << command;
+      section = docs.substr(at, docs.find("\n### ", at + 1) - at);
+    }
+    std::istringstream help(readLog(log));
+    std::string line;
+    int options = 0;
+    while (std::getline(help, line)) {
+      // Option lines: "  -o,--out TEXT   ..." or "  --frames TEXT  ...": each long name.
+      std::istringstream words(line);
+      std::string first;
+      if (!(words >> first) || first.rfind("-", 0) != 0) continue;
+      for (std::size_t at = first.find("--"); at != std::string::npos; at = first.find("--", at + 2)) {
+        const std::string name = first.substr(at, first.find_first_of(", ", at) - at);
+        ++options;
+        EXPECT_NE(section.find(name), std::string::npos)
+            << "cascade " << command << " " << name << " is not in docs/cli.md";
+      }
+    }
+    EXPECT_GE(options, 1) << command;  // --help at least: the parse found the option lines
+  }
 }
 
 TEST(Cli, AMistypedSubcommandIsNamedWithTheNearest) {
