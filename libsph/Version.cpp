@@ -1,5 +1,7 @@
 #include "libsph/Version.h"
 
+#include "CascadeRevision.h"  // generated at build time: CASCADE_GIT_REVISION
+
 namespace cascade {
 
 std::string cascadeVersion() {

@@ -1,6 +1,6 @@
 /// @file Version.h
 /// @brief The version of Cascade that wrote a file: the project version and the
-///        git revision of the source tree at configure time (CMake).
+///        git revision of the source tree when it was built (CMake writes it).
 #pragma once
 
 #include <string>
