@@ -1029,17 +1029,12 @@ json readJsonFile(const fs::path& file) {
   const std::string text = readTextFile(file);
   try {
     return json::parse(text);
-  } catch (const json::parse_error& parseError) {
-    // nlohmann's message: "[json.exception.parse_error.101] parse error at line 3, column 5: ..."
-    std::string message = parseError.what();
-    const auto at = message.find("parse error");
-    if (at != std::string::npos) message = message.substr(at);
-    throw InputError(file.string() + ": invalid JSON: " + message);
-  } catch (const json::out_of_range& overflow) {
-    // "[json.exception.out_of_range.406] number overflow parsing '1e999'"
-    std::string message = overflow.what();
-    const auto at = message.find("number overflow");
-    if (at != std::string::npos) message = message.substr(at);
+  } catch (const json::exception& bad) {
+    // What parse throws: "[json.exception.parse_error.101] parse error at line 3, column 5: ..."
+    // or "[json.exception.out_of_range.406] number overflow parsing '1e999'"; the text after "] ".
+    std::string message = bad.what();
+    const auto at = message.find("] ");
+    if (message.rfind("[json.exception.", 0) == 0 && at != std::string::npos) message = message.substr(at + 2);
     throw InputError(file.string() + ": invalid JSON: " + message);
   }
 }
