@@ -155,7 +155,11 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
   Progress progress(options.log, options.progressTerminal);
 
   // The resolved scene first: a failed bake still says what it ran.
-  writeTextAtomically(layout.scene(), sceneToJson(scene).dump(2) + "\n");
+  const nlohmann::json written = writeResolvedScene(scene, layout.scene());
+  // The assets, as OUT/scene.json names them (relative to OUT, with their content hash).
+  nlohmann::json assets = nlohmann::json::array();
+  for (const nlohmann::json& obstacle : written["boundaries"]["obstacles"])
+    assets.push_back({{"obstacle", obstacle["name"]}, {"mesh", obstacle["mesh"]}, {"hash", obstacle["mesh_hash"]}});
 
   const fs::path checkpointFile = checkpointPath(options.outDir);
   const std::optional<BakeCheckpoint> header = readCheckpointHeader(checkpointFile);
@@ -250,6 +254,7 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
     nlohmann::json record;
     record["done"] = done;
     record["input_hash"] = result.inputHash;
+    record["assets"] = assets;
     record["frames"] = {first, result.lastFrame};
     record["frame_count"] = result.frameCount;
     record["seconds"] = wallBefore + std::chrono::duration<double>(Clock::now() - wallStart).count();

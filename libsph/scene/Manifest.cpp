@@ -51,12 +51,9 @@ std::string renderInputHash(const Scene& scene, const std::string& surfaceHash, 
   return chainHash("render" + view["camera"].dump() + view["lights"].dump() + whitewaterHash, surfaceHash);
 }
 
-std::string sceneInputHash(const Scene& scene) {
-  json resolved = sceneToJson(scene);
-  for (const char* laterStages : {"surface", "whitewater", "camera", "lights"}) resolved.erase(laterStages);
-  const std::string text = resolved.dump();
-  std::uint64_t hash = fnv1a(text.data(), text.size());
-  // The obstacles' mesh files (every frame of a deforming sequence) enter by their bytes.
+namespace {
+/// fnv1a over the obstacle's mesh bytes (every frame of a sequence), continuing from `hash`.
+std::uint64_t addMeshBytes(const Obstacle& obstacle, int frameCount, std::uint64_t hash) {
   std::vector<char> buffer(1 << 16);
   const auto addFile = [&](const std::string& path) {
     std::ifstream in(path, std::ios::binary);
@@ -65,14 +62,27 @@ std::string sceneInputHash(const Scene& scene) {
       hash = fnv1a(buffer.data(), std::size_t(in.gcount()), hash);
     }
   };
-  for (const Obstacle& obstacle : scene.boundaries.obstacles) {
-    if (!obstacle.isSequence()) {
-      addFile(obstacle.mesh);
-      continue;
-    }
-    for (int f = sequenceFirstFrame(obstacle.mesh); f <= scene.output.frameCount(); ++f)
-      addFile(sequenceFramePath(obstacle.mesh, f));
+  if (!obstacle.isSequence()) {
+    addFile(obstacle.mesh);
+    return hash;
   }
+  for (int f = sequenceFirstFrame(obstacle.mesh); f <= frameCount; ++f) addFile(sequenceFramePath(obstacle.mesh, f));
+  return hash;
+}
+} // namespace
+
+std::string meshContentHash(const Obstacle& obstacle, int frameCount) {
+  return hexHash(addMeshBytes(obstacle, frameCount, fnv1a("", 0)));
+}
+
+std::string sceneInputHash(const Scene& scene) {
+  json resolved = sceneToJson(scene);
+  for (const char* laterStages : {"surface", "whitewater", "camera", "lights"}) resolved.erase(laterStages);
+  for (json& obstacle : resolved["boundaries"]["obstacles"]) obstacle.erase("mesh");
+  const std::string text = resolved.dump();
+  std::uint64_t hash = fnv1a(text.data(), text.size());
+  for (const Obstacle& obstacle : scene.boundaries.obstacles)
+    hash = addMeshBytes(obstacle, scene.output.frameCount(), hash);
   return hexHash(hash);
 }
 

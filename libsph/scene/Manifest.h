@@ -25,9 +25,14 @@ std::uint64_t fnv1a(const void* data, std::size_t size, std::uint64_t hash = 0xc
 std::string hexHash(std::uint64_t hash);
 
 /// Hash of everything a bake reads: the resolved scene JSON but for what only
-/// later stages read (surface, whitewater, camera, lights), and the bytes of every mesh file
-/// it names.
+/// later stages read (surface, whitewater, camera, lights) and the mesh files'
+/// paths, and the bytes of every mesh file it names. Where the files are does not
+/// enter: a scene folder moved elsewhere (a farm node's mount) keeps its hash.
 std::string sceneInputHash(const Scene& scene);
+
+/// Hash of an obstacle's mesh bytes (every frame of a deforming sequence up to
+/// `frameCount`), 16 hex digits; a file that cannot be read adds nothing.
+std::string meshContentHash(const Obstacle& obstacle, int frameCount);
 /// Hash of what `cascade surface` reads: the bake's inputs (`bakeHash`) and the
 /// scene's surface settings.
 std::string surfaceInputHash(const Scene& scene, const std::string& bakeHash);

@@ -4,6 +4,8 @@
 #include "libsph/NeighborSearch.h"
 #include "libsph/bodies/DeformingMesh.h"
 #include "libsph/io/AtomicFile.h"
+#include "libsph/scene/Manifest.h"
+#include "libsph/scene/SceneSchema.h"
 
 #include <algorithm>
 #include <cmath>
@@ -78,10 +80,55 @@ std::string formatNumber(double value) {
   return out.str();
 }
 
+/// While set (keysReadFrom), every key the parser reads is noted here with its kind,
+/// default and limits: the scene format's reference (SceneSchema.h) is made of these.
+thread_local std::vector<SceneKey>* tNotes = nullptr;
+
+/// "probes[3].at" -> "probes[].at".
+std::string patternOf(const std::string& path) {
+  std::string pattern;
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    pattern += path[i];
+    if (path[i] != '[') continue;
+    while (i + 1 < path.size() && path[i + 1] != ']') ++i;
+  }
+  return pattern;
+}
+
+/// Adds `key` to the notes, or merges it into the note of the same pattern: a key read
+/// as "any" (found, not yet typed) takes the typed reading; one read in several places
+/// (a probe's "at") is required only if every reading requires it.
+void noteKey(SceneKey key) {
+  if (!tNotes) return;
+  key.path = patternOf(key.path);
+  const auto same = std::find_if(tNotes->begin(), tNotes->end(), [&](const SceneKey& k) { return k.path == key.path; });
+  if (same == tNotes->end()) {
+    tNotes->push_back(std::move(key));
+    return;
+  }
+  SceneKey& note = *same;
+  if (key.kind == "any" || (note.kind == "enum" && key.kind == "string")) return;
+  if (note.kind == "any" || (note.kind == "string" && key.kind == "enum")) {
+    note = std::move(key);
+    return;
+  }
+  if (note.kind != key.kind)
+    throw std::logic_error("scene key " + key.path + " read as " + note.kind + " and as " + key.kind);
+  note.required = note.required && key.required;
+  if (note.size != key.size) note.size = 0;
+  if (!note.minimum) note.minimum = key.minimum, note.exclusiveMinimum = key.exclusiveMinimum;
+  if (!note.maximum) note.maximum = key.maximum;
+  if (note.fallback.is_null()) note.fallback = key.fallback;
+  if (note.choices.empty()) note.choices = key.choices;
+}
+
 /// Shared parse state: the file label for error messages and the scene's folder.
 struct Context {
   std::string file;
   fs::path baseDir;
+  /// OUT/scene.json: the stages after the bake never read the obstacles' mesh files
+  /// (they read OUT/geometry), so a bake folder moved without them still parses.
+  bool assetsOptional = false;
 
   [[noreturn]] void fail(const std::string& path, const std::string& message) const {
     throw InputError(file + ": " + path + ": " + message);
@@ -90,6 +137,17 @@ struct Context {
 
 enum class Range { Any, Positive, NonNegative };
 
+/// The note of a key read with `range` (for a vector: of each of its numbers).
+SceneKey keyNote(const std::string& path, const std::string& kind, json fallback, Range range, bool required = false) {
+  SceneKey key;
+  key.path = path;
+  key.kind = kind;
+  key.fallback = std::move(fallback);
+  key.required = required;
+  if (range != Range::Any) key.minimum = 0, key.exclusiveMinimum = range == Range::Positive;
+  return key;
+}
+
 /// Reads one JSON object, remembering which keys were asked for, so that
 /// finish() can reject the rest with a suggestion.
 class ObjectReader {
@@ -97,6 +155,15 @@ public:
   ObjectReader(const Context& context, const json& value, std::string path)
       : mContext(context), mValue(value), mPath(std::move(path)) {
     if (!mValue.is_object()) fail(mPath, "must be an object (got " + shortDump(mValue) + ")");
+    if (!mPath.empty()) noteKey(keyNote(mPath, "object", nullptr, Range::Any));
+  }
+
+  /// Notes a key read by hand (for the scene format's reference; see noteKey).
+  void note(const std::string& key, const std::string& kind, json fallback, Range range = Range::Any,
+            bool required = false, int size = 0) const {
+    SceneKey k = keyNote(pathOf(key), kind, std::move(fallback), range, required);
+    k.size = size;
+    noteKey(std::move(k));
   }
 
   std::string pathOf(const std::string& key) const { return mPath.empty() ? key : mPath + "." + key; }
@@ -108,6 +175,7 @@ public:
   /// The value at key, or nullptr if absent or null.
   const json* find(const std::string& key) {
     mKnown.push_back(key);
+    note(key, "any", nullptr);
     const auto it = mValue.find(key);
     if (it == mValue.end() || it->is_null()) return nullptr;
     return &*it;
@@ -120,12 +188,14 @@ public:
   }
 
   double number(const std::string& key, double fallback, Range range = Range::Any) {
+    note(key, "number", fallback, range);
     const json* value = find(key);
     if (!value) return fallback;
     return checkNumber(*value, pathOf(key), range);
   }
 
   double requiredNumber(const std::string& key, Range range = Range::Any) {
+    note(key, "number", nullptr, range, true);
     return checkNumber(require(key), pathOf(key), range);
   }
 
@@ -144,6 +214,9 @@ public:
   }
 
   double numberIn(const std::string& key, double fallback, double low, double high) {
+    SceneKey k = keyNote(pathOf(key), "number", fallback, Range::Any);
+    k.minimum = low, k.maximum = high;
+    noteKey(std::move(k));
     const double value = number(key, fallback);
     if (value < low || value > high)
       fail(pathOf(key), "must be in [" + formatNumber(low) + ", " + formatNumber(high) + "] (got " +
@@ -152,6 +225,9 @@ public:
   }
 
   std::int64_t integer(const std::string& key, std::int64_t fallback, std::int64_t low) {
+    SceneKey k = keyNote(pathOf(key), "integer", fallback, Range::Any);
+    k.minimum = double(low);
+    noteKey(std::move(k));
     const json* value = find(key);
     if (!value) return fallback;
     if (!value->is_number_integer() && !(value->is_number() && std::floor(value->get<double>()) ==
@@ -164,6 +240,7 @@ public:
   }
 
   bool boolean(const std::string& key, bool fallback) {
+    note(key, "boolean", fallback);
     const json* value = find(key);
     if (!value) return fallback;
     if (!value->is_boolean()) fail(pathOf(key), "must be true or false (got " + shortDump(*value) + ")");
@@ -171,6 +248,7 @@ public:
   }
 
   std::string string(const std::string& key, const std::string& fallback) {
+    note(key, "string", fallback);
     const json* value = find(key);
     if (!value) return fallback;
     if (!value->is_string()) fail(pathOf(key), "must be a string (got " + shortDump(*value) + ")");
@@ -178,6 +256,7 @@ public:
   }
 
   std::string requiredString(const std::string& key) {
+    note(key, "string", nullptr, Range::Any, true);
     const json& value = require(key);
     if (!value.is_string()) fail(pathOf(key), "must be a string (got " + shortDump(value) + ")");
     const std::string text = value.get<std::string>();
@@ -188,6 +267,10 @@ public:
   std::string choice(const std::string& key, const std::string& fallback,
                      const std::vector<std::string>& allowed) {
     const std::string value = string(key, fallback);
+    SceneKey k = keyNote(pathOf(key), "enum", fallback.empty() ? json(nullptr) : json(fallback), Range::Any,
+                         fallback.empty());
+    k.choices = allowed;
+    noteKey(std::move(k));
     if (std::find(allowed.begin(), allowed.end(), value) == allowed.end()) {
       const std::string near = nearestWord(value, allowed);
       fail(pathOf(key), "must be one of " + joinWords(allowed) + " (got \"" + value + "\")" +
@@ -199,6 +282,7 @@ public:
   template <std::size_t N>
   std::array<double, N> vector(const std::string& key, const std::array<double, N>& fallback,
                                Range range = Range::Any) {
+    note(key, "vector", fallback, range, false, int(N));
     const json* value = find(key);
     if (!value) return fallback;
     return checkVector<N>(*value, pathOf(key), range);
@@ -206,6 +290,7 @@ public:
 
   template <std::size_t N>
   std::array<double, N> requiredVector(const std::string& key, Range range = Range::Any) {
+    note(key, "vector", nullptr, range, true, int(N));
     return checkVector<N>(require(key), pathOf(key), range);
   }
 
@@ -221,6 +306,7 @@ public:
 
   /// Calls read(item, path) for every element of the array at key (absent: none).
   void array(const std::string& key, const std::function<void(const json&, const std::string&)>& read) {
+    note(key, "array", nullptr);
     const json* value = find(key);
     if (!value) return;
     if (!value->is_array()) fail(pathOf(key), "must be an array (got " + shortDump(*value) + ")");
@@ -324,7 +410,7 @@ std::string resolveMesh(const ObjectReader& reader, const std::string& key, cons
   if (path.is_relative()) path = reader.context().baseDir / path;
   path = path.lexically_normal();
   std::error_code error;
-  if (!fs::is_regular_file(path, error))
+  if (!reader.context().assetsOptional && !fs::is_regular_file(path, error))
     reader.fail(reader.pathOf(key), "mesh file not found: " + path.string());
   return fs::absolute(path, error).lexically_normal().string();
 }
@@ -385,6 +471,8 @@ Dynamic readDynamic(const Context& context, const json& value, const std::string
   const json* density = reader.find("density");
   const json* mass = reader.find("mass");
   if (density && mass) reader.fail(path, "give either \"density\" or \"mass\", not both");
+  reader.note("density", "number", nullptr, Range::Positive);
+  reader.note("mass", "number", nullptr, Range::Positive);
   if (density) dynamic.density = reader.checkNumber(*density, reader.pathOf("density"), Range::Positive);
   if (mass) dynamic.mass = reader.checkNumber(*mass, reader.pathOf("mass"), Range::Positive);
   dynamic.friction = reader.number("friction", dynamic.friction, Range::NonNegative);
@@ -399,6 +487,7 @@ Obstacle readObstacle(const Context& context, const json& value, const std::stri
   Obstacle obstacle;
   obstacle.name = reader.string("name", "obstacle" + std::to_string(index + 1));
   const std::string mesh = reader.requiredString("mesh");
+  reader.string("mesh_hash", "");  // written into OUT/scene.json for the reader; the bake hashes the bytes itself
   obstacle.mesh = mesh;
   if (obstacle.isSequence()) {
     // A deforming sequence: its frames are checked once the output's frame count is known.
@@ -473,6 +562,7 @@ Probe readProbe(const Context& context, const json& value, const std::string& pa
     if (c == ',' || c == '\n' || c == '"') reader.fail(reader.pathOf("name"), "must not contain , \" or newlines");
   probe.type = reader.choice("type", "", {"height", "pressure", "force", "front", "body", "velocity"});
   if (probe.type == "height") {
+    reader.note("at", "vector", nullptr, Range::Any, true, 2);
     const json* at = reader.find("at");
     if (!at) reader.fail(reader.pathOf("at"), "missing required key");
     if (at->is_array() && at->size() == 2) {
@@ -614,8 +704,8 @@ json whitewaterSettingsToJson(const WhitewaterSettings& w) {
           {"ply", w.ply}};
 }
 
-Scene parseScene(const json& value, const std::string& fileLabel, const fs::path& baseDir) {
-  const Context context{fileLabel, baseDir};
+namespace {
+Scene parseSceneIn(const json& value, const Context& context) {
   ObjectReader top(context, value, "");
   top.expectOnly({"name", "description", "size", "gravity", "fluid", "solver", "boundaries", "output", "surface",
                   "whitewater", "camera", "lights", "probes"});
@@ -719,7 +809,7 @@ Scene parseScene(const json& value, const std::string& fileLabel, const fs::path
   }
 
   // Deforming sequences: every frame the bake reaches (1 to the last) must be there.
-  for (std::size_t k = 0; k < scene.boundaries.obstacles.size(); ++k) {
+  for (std::size_t k = 0; k < scene.boundaries.obstacles.size() && !context.assetsOptional; ++k) {
     const Obstacle& obstacle = scene.boundaries.obstacles[k];
     if (!obstacle.isSequence()) continue;
     const int frames = scene.output.frameCount();
@@ -811,6 +901,23 @@ Scene parseScene(const json& value, const std::string& fileLabel, const fs::path
 
   top.finish();
   return scene;
+}
+} // namespace
+
+Scene parseScene(const json& value, const std::string& fileLabel, const fs::path& baseDir) {
+  return parseSceneIn(value, Context{fileLabel, baseDir});
+}
+
+std::vector<SceneKey> keysReadFrom(const json& value, const fs::path& baseDir) {
+  std::vector<SceneKey> notes;
+  struct Recording {
+    explicit Recording(std::vector<SceneKey>* notes) { tNotes = notes; }
+    ~Recording() { tNotes = nullptr; }
+  } recording(&notes);
+  Context context{"scene", baseDir};
+  context.assetsOptional = true;
+  parseSceneIn(value, context);
+  return notes;
 }
 
 json sceneToJson(const Scene& scene) {
@@ -1023,10 +1130,7 @@ void setJsonPath(json& root, const std::string& path, const std::string& text, c
 }
 
 namespace {
-json readJsonFile(const fs::path& file) {
-  std::error_code error;
-  if (!fs::is_regular_file(file, error)) throw InputError(file.string() + ": scene file not found");
-  const std::string text = readTextFile(file);
+json parseJsonText(const std::string& text, const std::string& label) {
   try {
     return json::parse(text);
   } catch (const json::exception& bad) {
@@ -1035,8 +1139,14 @@ json readJsonFile(const fs::path& file) {
     std::string message = bad.what();
     const auto at = message.find("] ");
     if (message.rfind("[json.exception.", 0) == 0 && at != std::string::npos) message = message.substr(at + 2);
-    throw InputError(file.string() + ": invalid JSON: " + message);
+    throw InputError(label + ": invalid JSON: " + message);
   }
+}
+
+json readJsonFile(const fs::path& file) {
+  std::error_code error;
+  if (!fs::is_regular_file(file, error)) throw InputError(file.string() + ": scene file not found");
+  return parseJsonText(readTextFile(file), file.string());
 }
 
 std::pair<std::string, std::string> splitOverride(const std::string& text) {
@@ -1048,11 +1158,17 @@ std::pair<std::string, std::string> splitOverride(const std::string& text) {
 } // namespace
 
 Scene loadScene(const fs::path& file, const std::vector<std::string>& overrides) {
-  json raw = readJsonFile(file);
-  const std::string label = file.string();
-  if (!raw.is_object()) throw InputError(label + ": (top level): must be an object");
+  std::error_code error;
+  if (!fs::is_regular_file(file, error)) throw InputError(file.string() + ": scene file not found");
   fs::path baseDir = file.parent_path();
   if (baseDir.empty()) baseDir = ".";
+  return loadSceneText(readTextFile(file), file.string(), baseDir, overrides);
+}
+
+Scene loadSceneText(const std::string& text, const std::string& label, const fs::path& baseDir,
+                    const std::vector<std::string>& overrides) {
+  json raw = parseJsonText(text, label);
+  if (!raw.is_object()) throw InputError(label + ": (top level): must be an object");
 
   // 1. --set size=NAME chooses the preset.
   for (const std::string& text : overrides) {
@@ -1105,7 +1221,24 @@ Scene loadScene(const fs::path& file, const std::vector<std::string>& overrides)
 Scene readResolvedScene(const fs::path& file) {
   fs::path baseDir = file.parent_path();
   if (baseDir.empty()) baseDir = ".";
-  return parseScene(readJsonFile(file), file.string(), baseDir);
+  Context context{file.string(), baseDir};
+  context.assetsOptional = true;
+  return parseSceneIn(readJsonFile(file), context);
+}
+
+json writeResolvedScene(const Scene& scene, const fs::path& file) {
+  json resolved = sceneToJson(scene);
+  std::error_code error;
+  const fs::path folder = fs::absolute(file, error).parent_path().lexically_normal();
+  json& obstacles = resolved["boundaries"]["obstacles"];
+  for (std::size_t k = 0; k < scene.boundaries.obstacles.size(); ++k) {
+    const Obstacle& obstacle = scene.boundaries.obstacles[k];
+    const fs::path relative = fs::path(obstacle.mesh).lexically_relative(folder);
+    if (!relative.empty()) obstacles[k]["mesh"] = relative.generic_string();
+    obstacles[k]["mesh_hash"] = meshContentHash(obstacle, scene.output.frameCount());
+  }
+  writeTextAtomically(file, resolved.dump(2) + "\n");
+  return resolved;
 }
 
 } // namespace cascade::scene

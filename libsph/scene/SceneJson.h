@@ -68,9 +68,20 @@ void setJsonPath(nlohmann::json& json, const std::string& path, const nlohmann::
 
 /// Loads a scene file with its presets and `--set KEY=VALUE` overrides (see above).
 Scene loadScene(const std::filesystem::path& file, const std::vector<std::string>& overrides = {});
+/// The same for a scene's text: `label` names it in errors, mesh paths are relative to `baseDir`.
+Scene loadSceneText(const std::string& text, const std::string& label, const std::filesystem::path& baseDir,
+                    const std::vector<std::string>& overrides = {});
 
-/// Reads OUT/scene.json (a resolved scene) without presets or overrides.
+/// Reads OUT/scene.json (a resolved scene) without presets or overrides. Its mesh
+/// paths are relative to its folder; a mesh file that is not there is no error
+/// (the stages after the bake read OUT/geometry, not the meshes).
 Scene readResolvedScene(const std::filesystem::path& file);
+
+/// Writes OUT/scene.json atomically: sceneToJson() with every obstacle's mesh path
+/// relative to the file's folder and its content hash ("mesh_hash",
+/// meshContentHash()), so that a bake folder moved with its assets re-runs.
+/// Returns what it wrote.
+nlohmann::json writeResolvedScene(const Scene& scene, const std::filesystem::path& file);
 
 /// Levenshtein edit distance (for "did you mean" suggestions).
 std::size_t editDistance(const std::string& a, const std::string& b);

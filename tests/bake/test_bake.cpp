@@ -17,9 +17,11 @@
 #include <unistd.h>
 #include <fcntl.h>
 
+#include <cctype>
 #include <chrono>
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -257,6 +259,56 @@ TEST_F(Bake, SurfaceWritesAPlyWithVelocitiesThatInspectAndRenderRead) {
   fs::remove_all(out);
 }
 
+// A shot folder (scene, assets, OUT) moved to another place, as to a farm node's mount:
+// `cascade run` there skips every stage. OUT/scene.json and the manifest name the mesh
+// relative to OUT with its content hash; OUT moved alone still surfaces and renders.
+TEST(PortableOut, AMovedShotFolderRerunsWithEveryStageSkipped) {
+  const fs::path base = freshDir("portable");
+  const fs::path first = base / "shot", second = base / "moved" / "shot";
+  fs::create_directories(first / "assets");
+  fs::copy_file(kScenes + "/bunny.json", first / "bunny.json");
+  fs::copy_file(kScenes + "/assets/bunny_res3.ply", first / "assets" / "bunny_res3.ply");
+  const auto runArgs = [](const fs::path& shot) {
+    return std::vector<std::string>{"run", (shot / "bunny.json").string(), "-o", (shot / "out").string(),
+                                    "--set", "size=seed", "--set", "output.end_time=0.05"};
+  };
+  const fs::path log = base / "portable.log";
+  ASSERT_EQ(run(runArgs(first), log), 0) << readLog(log);
+  const OutputLayout layout(first / "out");
+  const nlohmann::json written = nlohmann::json::parse(readTextFile(layout.scene()));
+  const nlohmann::json& bunny = written["boundaries"]["obstacles"][0];
+  EXPECT_EQ(bunny["mesh"], "../assets/bunny_res3.ply");
+  EXPECT_EQ(bunny["mesh_hash"].get<std::string>().size(), 16u);
+  const nlohmann::json asset = scene::readManifest(layout.manifest())["stages"]["bake"]["assets"][0];
+  EXPECT_EQ(asset["mesh"], bunny["mesh"]);
+  EXPECT_EQ(asset["hash"], bunny["mesh_hash"]);
+
+  fs::create_directories(second.parent_path());
+  fs::rename(first, second);
+  ASSERT_EQ(run(runArgs(second), log), 0) << readLog(log);
+  const std::string text = readLog(log);
+  for (const char* skipped : {"bake: scene unchanged", "surface: inputs unchanged, skipped",
+                              "render: inputs unchanged, skipped"})
+    EXPECT_NE(text.find(skipped), std::string::npos) << skipped << "\n" << text;
+
+  // A changed mesh (same path, other bytes) re-bakes.
+  {
+    std::ofstream append(second / "assets" / "bunny_res3.ply", std::ios::app);
+    append << "\n";
+  }
+  const fs::path copy = base / "elsewhere" / "out";
+  fs::create_directories(copy.parent_path());
+  fs::copy(second / "out", copy, fs::copy_options::recursive);
+  ASSERT_EQ(run(runArgs(second), log), 0) << readLog(log);
+  EXPECT_EQ(readLog(log).find("bake: scene unchanged"), std::string::npos) << readLog(log);
+
+  // OUT alone, without the scene's assets: the later stages read OUT only.
+  ASSERT_EQ(run({"surface", copy.string(), "--force"}, log), 0) << readLog(log);
+  ASSERT_EQ(run({"render", copy.string(), "--force"}, log), 0) << readLog(log);
+  EXPECT_TRUE(fs::exists(OutputLayout(copy).render(1)));
+  fs::remove_all(base);
+}
+
 TEST(Cli, VersionNamesCascadeAndItsLibraries) {
   const fs::path log = freshDir("version").string() + ".log";
   EXPECT_EQ(run({"--version"}, log), 0);
@@ -269,10 +321,11 @@ TEST(Cli, VersionNamesCascadeAndItsLibraries) {
 // docs/cli.md is the in-repo form of the interface users script against: every option
 // `--help` prints, of the program and of each subcommand, is in it, under its subcommand's
 // heading for subcommands.
-TEST(Cli, EveryHelpOptionIsInTheDocs) {
+TEST(Cli, EveryHelpTextIsInTheDocsAndConsistent) {
   const std::string docs = readTextFile(fs::path(CASCADE_SOURCE_DIR) / "docs" / "cli.md");
   const fs::path log = freshDir("help").string() + ".log";
-  for (const std::string command : {"", "bake", "whitewater", "surface", "render", "run", "bench", "inspect"}) {
+  for (const std::string command :
+       {"", "bake", "whitewater", "surface", "render", "run", "bench", "inspect", "schema"}) {
     std::vector<std::string> args;
     if (!command.empty()) args.push_back(command);
     args.push_back("--help");
@@ -284,10 +337,22 @@ TEST(Cli, EveryHelpOptionIsInTheDocs) {
       ASSERT_NE(at, std::string::npos) << "no section for " << command;
       section = docs.substr(at, docs.find("\n### ", at + 1) - at);
     }
+    // The subcommand's section holds its --help text as printed (indented as code).
+    std::istringstream printed(readLog(log));
+    std::string line, indented;
+    while (std::getline(printed, line)) indented += (line.empty() ? "" : "    " + line) + "\n";
+    while (indented.size() > 1 && indented.compare(indented.size() - 2, 2, "\n\n") == 0) indented.pop_back();
+    if (!command.empty()) {
+      EXPECT_NE(section.find(indented), std::string::npos)
+          << "docs/cli.md's section differs from `cascade " << command << " --help`:\n" << indented;
+    }
     std::istringstream help(readLog(log));
-    std::string line;
     int options = 0;
     while (std::getline(help, line)) {
+      // Every description (from column 30) starts with a capital, as CLI11's own.
+      if (line.size() > 30 && line.compare(28, 2, "  ") == 0 && std::isalpha(static_cast<unsigned char>(line[30]))) {
+        EXPECT_TRUE(std::isupper(static_cast<unsigned char>(line[30]))) << "cascade " << command << ": " << line;
+      }
       // Option lines: "  -o,--out TEXT   ..." or "  --frames TEXT  ...": each long name.
       std::istringstream words(line);
       std::string first;

@@ -18,5 +18,6 @@ void addRenderCommand(CLI::App& app);
 void addRunCommand(CLI::App& app);
 void addBenchCommand(CLI::App& app);
 void addInspectCommand(CLI::App& app);
+void addSchemaCommand(CLI::App& app);
 
 } // namespace cascade::cli

@@ -46,20 +46,20 @@ scene::BakeResult runBake(const scene::Scene& scene, const std::filesystem::path
 }
 
 void addBakeCommand(CLI::App& app) {
-  CLI::App* command = app.add_subcommand("bake", "simulate a scene into OUT/particles (resumable)");
+  CLI::App* command = app.add_subcommand("bake", "Simulate a scene into OUT/particles (resumable)");
   struct Args {
     std::string scene, out, frames;
     std::vector<std::string> sets;
     bool restart = false, ignoreMemory = false;
   };
   auto args = std::make_shared<Args>();
-  command->add_option("scene", args->scene, "scene file (JSON)")->required();
-  command->add_option("-o,--out", args->out, "output folder (default out/<scene name>)");
-  command->add_option("--frames", args->frames, "frames A-B to write (1-based, inclusive)");
-  command->add_option("--set", args->sets, "override a scene value: KEY=VALUE (dotted path)")->take_all();
-  command->add_flag("--restart", args->restart, "ignore a checkpoint and bake from the start");
+  command->add_option("scene", args->scene, "Scene file (JSON)")->required();
+  command->add_option("-o,--out", args->out, "Output folder (default out/<scene name>)");
+  command->add_option("--frames", args->frames, "Frames A-B to write (1-based, inclusive)");
+  command->add_option("--set", args->sets, "Override a scene value: KEY=VALUE (dotted path)")->take_all();
+  command->add_flag("--restart", args->restart, "Ignore a checkpoint and bake from the start");
   command->add_flag("--ignore-memory", args->ignoreMemory,
-                    "bake even if the memory estimate exceeds what this machine has available");
+                    "Bake even if the memory estimate exceeds what this machine has available");
   command->callback([args] {
     const scene::Scene scene = scene::loadScene(args->scene, args->sets);
     runBake(scene, defaultOutDir(scene, args->out), args->frames, args->restart, args->ignoreMemory);

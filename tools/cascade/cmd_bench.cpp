@@ -22,11 +22,11 @@ void addBenchCommand(CLI::App& app) {
   };
   auto options = std::make_shared<Options>();
   CLI::App* bench = app.add_subcommand("bench", "Run a benchmark and print its table");
-  bench->add_option("kind", options->kind, "neighbors|step|accuracy|surface|render|bodies|whitewater")
+  bench->add_option("kind", options->kind, "The benchmark: neighbors|step|accuracy|surface|render|bodies|whitewater")
       ->required()
       ->check(CLI::IsMember({"neighbors", "step", "accuracy", "surface", "render", "bodies", "whitewater"}));
   bench->add_option("--json", options->json, "Also write the table as JSON to FILE");
-  bench->add_option("--plot", options->plot, "accuracy: write the error/run-time plot (PNG) to FILE, the Lobovsky one to FILE-lobovsky (default: next to --json)");
+  bench->add_option("--plot", options->plot, "With accuracy: write the error/run-time plot (PNG) to FILE, the Lobovsky one to FILE-lobovsky (default: next to --json)");
   bench->callback([options] {
     static const std::map<std::string, BenchTable (*)()> kinds = {
         {"neighbors", benchNeighbors}, {"step", benchStep}, {"accuracy", benchAccuracy},

@@ -176,9 +176,9 @@ void inspectMesh(const fs::path& path) {
 } // namespace
 
 void addInspectCommand(CLI::App& app) {
-  CLI::App* command = app.add_subcommand("inspect", "show what a particle cache, VDB, OBJ or PLY file holds");
+  CLI::App* command = app.add_subcommand("inspect", "Show what a particle cache, VDB, OBJ or PLY file holds");
   auto file = std::make_shared<std::string>();
-  command->add_option("file", *file, "particles.NNNN.vdb | .ply | surface.NNNN.vdb | fluid.NNNN.obj | .ply | whitewater.NNNN.vdb")->required();
+  command->add_option("file", *file, "A file: particles.NNNN.vdb | .ply | surface.NNNN.vdb | fluid.NNNN.obj | .ply | whitewater.NNNN.vdb")->required();
   command->callback([file] {
     const fs::path path(*file);
     std::error_code error;

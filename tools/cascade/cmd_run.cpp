@@ -119,21 +119,21 @@ void runStage(const std::string& stage, const fs::path& outDir, const std::strin
 } // namespace
 
 void addRunCommand(CLI::App& app) {
-  CLI::App* command = app.add_subcommand("run", "bake, whitewater (if the scene has it), surface and render a scene, skipping stages whose inputs did not change");
+  CLI::App* command = app.add_subcommand("run", "Bake, whitewater (if the scene has it), surface and render a scene, skipping stages whose inputs did not change");
   struct Args {
     std::string scene, out;
     std::vector<std::string> sets;
     bool noRender = false, noSurface = false, noWhitewater = false, ignoreMemory = false;
   };
   auto args = std::make_shared<Args>();
-  command->add_option("scene", args->scene, "scene file (JSON)")->required();
-  command->add_option("-o,--out", args->out, "output folder (default out/<scene name>)");
-  command->add_option("--set", args->sets, "override a scene value: KEY=VALUE (dotted path)")->take_all();
-  command->add_flag("--no-surface", args->noSurface, "stop after the bake");
-  command->add_flag("--no-whitewater", args->noWhitewater, "skip the whitewater stage of a scene that has one");
-  command->add_flag("--no-render", args->noRender, "stop after surfacing");
+  command->add_option("scene", args->scene, "Scene file (JSON)")->required();
+  command->add_option("-o,--out", args->out, "Output folder (default out/<scene name>)");
+  command->add_option("--set", args->sets, "Override a scene value: KEY=VALUE (dotted path)")->take_all();
+  command->add_flag("--no-surface", args->noSurface, "Stop after the bake");
+  command->add_flag("--no-whitewater", args->noWhitewater, "Skip the whitewater stage of a scene that has one");
+  command->add_flag("--no-render", args->noRender, "Stop after surfacing");
   command->add_flag("--ignore-memory", args->ignoreMemory,
-                    "bake even if the memory estimate exceeds what this machine has available");
+                    "Bake even if the memory estimate exceeds what this machine has available");
   command->callback([args] {
     const auto start = std::chrono::steady_clock::now();
     const scene::Scene scene = scene::loadScene(args->scene, args->sets);
@@ -153,7 +153,7 @@ void addRunCommand(CLI::App& app) {
     if (!args->noSurface) {
       // The later stages read OUT/scene.json: it carries this scene's surface and
       // whitewater settings, camera and lights even when the bake was skipped.
-      writeTextAtomically(layout.scene(), scene::sceneToJson(scene).dump(2) + "\n");
+      scene::writeResolvedScene(scene, layout.scene());
       std::string whitewaterHash;
       if (scene.whitewater && !args->noWhitewater) {
         whitewaterHash = scene::whitewaterInputHash(scene, bakeHash);

@@ -140,7 +140,7 @@ void addSurfaceCommand(CLI::App& app) {
   command->add_option("OUT", options->out, "Output directory of a bake (reads OUT/particles)")->required();
   command->add_option("--frames", options->frames, "Frame range A-B (inclusive, 1-based); default all");
   command->add_option("--method", options->method,
-                      "union (of spheres) | smooth (spheres, Zhu-Bridson 2005) | anisotropic (Yu-Turk 2013)")
+                      "Level set: union (of spheres) | smooth (spheres, Zhu-Bridson 2005) | anisotropic (Yu-Turk 2013)")
       ->capture_default_str();
   command->add_option("--voxel-size", s.voxelSize, "Voxel edge, m (default: half the particle spacing)");
   command->add_option("--spacing", s.particleSpacing,

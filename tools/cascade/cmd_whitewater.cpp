@@ -30,7 +30,7 @@ struct WhitewaterOption {
 
 const std::vector<WhitewaterOption>& whitewaterOptions() {
   static const std::vector<WhitewaterOption> options{
-      {"--limits", "limits", "auto (from the bake's statistics) | fixed (the ranges below)", false, "auto|fixed"},
+      {"--limits", "limits", "Clamping ranges: auto (from the bake's statistics) | fixed (the ranges below)", false, "auto|fixed"},
       {"--trapped-air", "trapped_air", "Trapped-air clamping range MIN,MAX, m/s (with --limits fixed)", true, "MIN,MAX"},
       {"--wave-crest", "wave_crest", "Wave-crest clamping range MIN,MAX (with --limits fixed)", true, "MIN,MAX"},
       {"--kinetic-energy", "kinetic_energy", "Kinetic energy clamping range MIN,MAX, J/kg (with --limits fixed)", true, "MIN,MAX"},

@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   cli::addRunCommand(app);
   cli::addBenchCommand(app);
   cli::addInspectCommand(app);
+  cli::addSchemaCommand(app);
   app.footer(
       "Exit status: 0 success; 2 bad input; 3 the simulation became unstable; 1 anything else.");
 
