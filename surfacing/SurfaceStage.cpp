@@ -5,6 +5,7 @@
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/ParticleCache.h"
 #include "libsph/io/VdbFile.h"
+#include "libsph/scene/SceneSetup.h"
 #include "surfacing/LevelSetFiltering.h"
 #include "surfacing/LevelSetMesher.h"
 #include "surfacing/LevelSetMethods.h"
@@ -22,6 +23,7 @@
 
 #include <chrono>
 #include <exception>
+#include <iomanip>
 #include <cmath>
 #include <mutex>
 #include <optional>
@@ -148,6 +150,14 @@ void writeSurfaceVdb(const fs::path& path, openvdb::FloatGrid& levelSet, openvdb
 
 } // namespace
 
+double leastSurfaceBytes(std::size_t particles, double spacing, double voxelSize, bool velocity) {
+  if (!(spacing > 0) || !(voxelSize > 0)) return 0;
+  const double volume = double(particles) * spacing * spacing * spacing;
+  const double area = std::cbrt(36 * M_PI) * std::pow(volume, 2.0 / 3.0);  // a sphere's: the least
+  const double bandVoxels = area * 2 / (voxelSize * voxelSize);
+  return bandVoxels * (velocity ? 16.0 : 4.0);
+}
+
 SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, double spacing, const SurfaceOptions& options,
                                const fs::path& vdbPath, const fs::path& meshPath) {
   return surfaceParticles(positions, {}, spacing, options, vdbPath, meshPath);
@@ -164,6 +174,18 @@ SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, const std::v
   const double voxelSize = options.voxelSize > 0 ? options.voxelSize : 0.5 * spacing;
   result.voxelSize = voxelSize;
   result.particleSpacing = spacing;
+
+  // Refuse, before allocating, a frame whose level set cannot fit even at its least.
+  const double least =
+      leastSurfaceBytes(positions.size(), spacing, voxelSize, options.velocity && !velocities.empty());
+  const double available = scene::availableMemory();
+  if (available > 0 && least > available) {
+    std::ostringstream message;
+    message << std::setprecision(3) << "surface: needs at least " << least / double(1 << 30) << " GiB ("
+            << positions.size() << " particles at voxel size " << voxelSize << " m, spacing " << spacing
+            << " m), this machine has " << available / double(1 << 30) << " GiB available (a larger --voxel-size)";
+    throw InputError(message.str());
+  }
 
   surfacing::LevelSetSettings settings;
   settings.voxelSize = voxelSize;

@@ -145,11 +145,18 @@ struct SurfaceResult {
   SurfaceTimings timings;
 };
 
+/// The least memory a frame's level set takes, bytes: a band two voxels thick (one on
+/// each side of the zero crossing; the narrow band is wider) over the least surface enclosing the particles' volume (particles x spacing^3, a
+/// sphere's), 4 bytes a voxel (16 with the velocity grid). A lower bound, so a frame
+/// refused for it could never have fitted (surfaceParticles throws InputError).
+double leastSurfaceBytes(std::size_t particles, double spacing, double voxelSize, bool velocity);
+
 /// Surfaces particle positions (and, if not empty and options.velocity, their
 /// velocities) in memory and, if `vdbPath` is not empty, writes the level set (and
 /// "v", density, and with `foam` the "foam" grid of those foam particles) there
 /// atomically; if `meshPath` is not empty, also the mesh (writeSurfaceMesh with
 /// options.meshYUp, the format by the path's extension). `spacing` 0 means estimate it.
+/// A frame that cannot fit in the available memory (leastSurfaceBytes) is an InputError.
 SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, const std::vector<Vec3r>& velocities,
                                double spacing, const SurfaceOptions& options,
                                const std::filesystem::path& vdbPath = {},

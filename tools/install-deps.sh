@@ -3,14 +3,17 @@
 # Idempotent: packages already present are left alone; apt lists are refreshed
 # only when something is missing. Run as root on a fresh Debian 12 machine.
 # Opt-in: --blender (or CASCADE_WITH_BLENDER=1) also installs Blender and the
-# numpy its Python needs (tools/blender/, ctest -L blender, docs/blender.md).
+# numpy its Python needs (tools/blender/, ctest -L blender, docs/blender.md);
+# --fuzz installs clang 14 and libFuzzer (tools/fuzz.sh, tests/fuzz).
 set -euo pipefail
 
 with_blender=${CASCADE_WITH_BLENDER:-0}
+with_fuzz=0
 for arg in "$@"; do
   case "$arg" in
     --blender) with_blender=1 ;;
-    *) echo "install-deps: unknown argument $arg (known: --blender)" >&2; exit 2 ;;
+    --fuzz) with_fuzz=1 ;;
+    *) echo "install-deps: unknown argument $arg (known: --blender, --fuzz)" >&2; exit 2 ;;
   esac
 done
 
@@ -24,6 +27,9 @@ PACKAGES=(
 )
 if [ "$with_blender" = 1 ]; then
   PACKAGES+=(blender python3-numpy)
+fi
+if [ "$with_fuzz" = 1 ]; then
+  PACKAGES+=(clang-14 libfuzzer-14-dev llvm-14)
 fi
 
 missing=()

@@ -31,6 +31,7 @@ constexpr const char* kHashKey = "cascade_input_hash";
 openvdb::points::PointDataGrid::Ptr readGrid(const fs::path& path, bool withData) {
   initializeOpenVdb();
   validateVdbFile(path);
+  const VdbReadScope reading(path);
   openvdb::io::File file(path.string());
   file.open(!withData);
   openvdb::points::PointDataGrid::Ptr grid;

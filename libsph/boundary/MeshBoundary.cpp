@@ -3,13 +3,14 @@
 #include "libsph/Errors.h"
 #include "libsph/boundary/BoundarySampling.h"
 #include "libsph/boundary/TriangleBand.h"
+#include "libsph/io/TriangleMesh.h"
 
 // Heavy headers stay here (BRIEF: assimp / CGAL inside the .cpp files).
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
-#include <CGAL/Simple_cartesian.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/boost/graph/helpers.h>
 #include <CGAL/Polygon_mesh_processing/border.h>
@@ -23,7 +24,9 @@
 #include <CGAL/Surface_mesh_simplification/edge_collapse.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_stop_predicate.h>
 
+#include <algorithm>
 #include <array>
+#include <cctype>
 #include <atomic>
 #include <cmath>
 #include <map>
@@ -36,7 +39,10 @@ namespace cascade {
 
 namespace {
 
-using Kernel = CGAL::Simple_cartesian<double>;
+// Exact predicates (orientation, coplanarity) for hole filling, orientation and
+// simplification: with a plain double kernel CGAL's preconditions fail on meshes
+// with nearly flat or degenerate faces (a Debug build asserts).
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Point = Kernel::Point_3;
 using SurfaceMesh = CGAL::Surface_mesh<Point>;
 namespace PMP = CGAL::Polygon_mesh_processing;
@@ -79,32 +85,56 @@ TriangleMesh toTriangleMesh(const SurfaceMesh& mesh) {
 
 } // namespace
 
+namespace {
+/// Appends a part's triangles to `mesh`, welding vertices at identical positions (across
+/// parts too, through `welded`) and dropping triangles that weld to a line or a point.
+void addWelded(TriangleMesh& mesh, std::map<std::array<float, 3>, std::uint32_t>& welded,
+               const std::vector<Eigen::Vector3f>& vertices,
+               const std::vector<std::array<std::uint32_t, 3>>& triangles) {
+  std::vector<std::uint32_t> index(vertices.size());
+  for (std::size_t v = 0; v < vertices.size(); ++v) {
+    const Eigen::Vector3f& p = vertices[v];
+    auto [it, inserted] = welded.emplace(std::array<float, 3>{p.x(), p.y(), p.z()},
+                                         static_cast<std::uint32_t>(mesh.vertices.size()));
+    if (inserted) mesh.vertices.push_back(p);
+    index[v] = it->second;
+  }
+  for (const auto& t : triangles) {
+    const std::array<std::uint32_t, 3> tri{index[t[0]], index[t[1]], index[t[2]]};
+    if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2]) continue;
+    mesh.triangles.push_back(tri);
+  }
+}
+} // namespace
+
 TriangleMesh loadMeshFile(const std::filesystem::path& path) {
   if (!std::filesystem::exists(path)) throw InputError(path.string() + ": mesh file not found");
-  Assimp::Importer importer;
-  const aiScene* scene = importer.ReadFile(
-      path.string(), aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices);
-  if (!scene || !scene->mRootNode)
-    throw InputError(path.string() + ": cannot load mesh (" + importer.GetErrorString() + ")");
   TriangleMesh mesh;
-  // Weld identical positions across the file's meshes.
   std::map<std::array<float, 3>, std::uint32_t> welded;
-  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
-    const aiMesh* part = scene->mMeshes[m];
-    std::vector<std::uint32_t> index(part->mNumVertices);
-    for (unsigned v = 0; v < part->mNumVertices; ++v) {
-      const aiVector3D& p = part->mVertices[v];
-      const std::array<float, 3> key{p.x, p.y, p.z};
-      auto [it, inserted] = welded.emplace(key, static_cast<std::uint32_t>(mesh.vertices.size()));
-      if (inserted) mesh.vertices.emplace_back(p.x, p.y, p.z);
-      index[v] = it->second;
-    }
-    for (unsigned f = 0; f < part->mNumFaces; ++f) {
-      const aiFace& face = part->mFaces[f];
-      if (face.mNumIndices != 3) continue;
-      const std::array<std::uint32_t, 3> tri{index[face.mIndices[0]], index[face.mIndices[1]], index[face.mIndices[2]]};
-      if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2]) continue;
-      mesh.triangles.push_back(tri);
+  std::string extension = path.extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (extension == ".ply") {
+    // Cascade's own PLY reader (fuzzed; libsph/io/Ply.h): assimp 5.2's reads past the
+    // end of a malformed header.
+    const TriangleMesh file = readPly(path);
+    addWelded(mesh, welded, file.vertices, file.triangles);
+  } else {
+    Assimp::Importer importer;
+    const aiScene* scene = importer.ReadFile(
+        path.string(), aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices);
+    if (!scene || !scene->mRootNode)
+      throw InputError(path.string() + ": cannot load mesh (" + importer.GetErrorString() + ")");
+    for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+      const aiMesh* part = scene->mMeshes[m];
+      std::vector<Eigen::Vector3f> vertices(part->mNumVertices);
+      for (unsigned v = 0; v < part->mNumVertices; ++v)
+        vertices[v] = Eigen::Vector3f(part->mVertices[v].x, part->mVertices[v].y, part->mVertices[v].z);
+      std::vector<std::array<std::uint32_t, 3>> triangles;
+      for (unsigned f = 0; f < part->mNumFaces; ++f) {
+        const aiFace& face = part->mFaces[f];
+        if (face.mNumIndices == 3) triangles.push_back({face.mIndices[0], face.mIndices[1], face.mIndices[2]});
+      }
+      addWelded(mesh, welded, vertices, triangles);
     }
   }
   if (mesh.triangles.empty()) throw InputError(path.string() + ": mesh has no triangles");

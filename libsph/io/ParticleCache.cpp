@@ -100,6 +100,7 @@ namespace {
 ParticleFrame readVdbFrame(const fs::path& path) {
   initializeOpenVdb();
   validateVdbFile(path);
+  const VdbReadScope reading(path);
   namespace points = openvdb::points;
   openvdb::io::File file(path.string());
   file.open(false);  // no delayed loading: read everything now

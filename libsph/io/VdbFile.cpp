@@ -2,12 +2,19 @@
 
 #include "libsph/Errors.h"
 
+#include <signal.h>
+#include <unistd.h>
+
 #include <openvdb/io/Archive.h>
 #include <openvdb/io/GridDescriptor.h>
 #include <openvdb/io/io.h>
 #include <openvdb/openvdb.h>
 
+#include <csignal>
+#include <cstdint>
+#include <cstring>
 #include <fstream>
+#include <string>
 #include <mutex>
 
 namespace cascade {
@@ -26,7 +33,79 @@ struct HeaderReader : openvdb::io::Archive {
   }
   bool hasGridOffsets() const { return inputHasGridOffsets(); }
 };
+
+/// The checks below read a VDB's lengths and offsets without trusting them:
+/// OpenVDB's own readers allocate (and zero-fill) whatever length a corrupt file
+/// claims before the read fails, which took minutes and 11 GiB for a 778-byte file.
+class LengthChecker {
+public:
+  LengthChecker(std::istream& stream, std::int64_t fileSize, std::string where)
+      : mStream(stream), mFileSize(fileSize), mWhere(std::move(where)) {}
+
+  template <class T>
+  T read(const char* what) {
+    T value{};
+    mStream.read(reinterpret_cast<char*>(&value), sizeof value);
+    if (!mStream) throw InputError(mWhere + "truncated OpenVDB file (" + what + ")");
+    return value;
+  }
+
+  /// Skips a uint32 length and that many bytes (a string, or a metadata value).
+  void skipSized(const char* what) {
+    const std::uint32_t size = read<std::uint32_t>(what);
+    if (std::int64_t(size) > mFileSize - std::int64_t(mStream.tellg()))
+      throw InputError(mWhere + "corrupt OpenVDB file (" + what + " of " + std::to_string(size) +
+                       " bytes, past the end of the file)");
+    mStream.seekg(size, std::ios::cur);
+  }
+
+  /// Skips a metadata map (MetaMap::readMeta): a count, then name, type name and value.
+  void skipMetadata(const char* what) {
+    const std::uint32_t count = read<std::uint32_t>(what);
+    if (std::int64_t(count) * 12 > mFileSize - std::int64_t(mStream.tellg()))
+      throw InputError(mWhere + "corrupt OpenVDB file (" + what + ": " + std::to_string(count) + " entries)");
+    for (std::uint32_t i = 0; i < count; ++i) {
+      skipSized("metadata name");
+      skipSized("metadata type");
+      skipSized("metadata value");
+    }
+  }
+
+private:
+  std::istream& mStream;
+  std::int64_t mFileSize;
+  std::string mWhere;
+};
+
+/// The file this thread is reading with OpenVDB ("" when none), for the abort handler.
+thread_local char tReading[4096] = "";
+
+void onAbort(int signal) {
+  if (tReading[0] != '\0') {
+    static const char kCorrupt[] = ": corrupt OpenVDB file (OpenVDB failed reading it)\n";
+    ssize_t ignored = ::write(2, tReading, std::strlen(tReading));
+    ignored = ::write(2, kCorrupt, sizeof kCorrupt - 1);
+    (void)ignored;
+    ::_exit(kExitBadInput);
+  }
+  std::signal(signal, SIG_DFL);
+  std::raise(signal);
+}
 } // namespace
+
+VdbReadScope::VdbReadScope(const std::filesystem::path& path) {
+  std::strncpy(tReading, path.c_str(), sizeof tReading - 1);
+  tReading[sizeof tReading - 1] = '\0';
+}
+
+VdbReadScope::~VdbReadScope() { tReading[0] = '\0'; }
+
+void installVdbAbortGuard() {
+  struct sigaction action {};
+  action.sa_handler = onAbort;
+  sigemptyset(&action.sa_mask);
+  for (int signal : {SIGABRT, SIGSEGV, SIGBUS, SIGFPE}) ::sigaction(signal, &action, nullptr);
+}
 
 void initializeOpenVdb() {
   static std::once_flag once;
@@ -45,18 +124,27 @@ void validateVdbFile(const std::filesystem::path& path) {
     HeaderReader header;
     header.read(stream);
     if (!header.hasGridOffsets()) throw InputError(where + "VDB file without grid offsets is not supported");
-    openvdb::MetaMap fileMetadata;
-    fileMetadata.readMeta(stream);
-    std::int32_t gridCount = 0;
-    stream.read(reinterpret_cast<char*>(&gridCount), sizeof gridCount);
-    if (!stream || gridCount < 0) throw InputError(where + "truncated OpenVDB file (grid table)");
+    const std::uint32_t version = openvdb::io::getFormatVersion(stream);
+    LengthChecker check(stream, fileSize, where);
+    check.skipMetadata("file metadata");
+    const std::int32_t gridCount = check.read<std::int32_t>("grid table");
+    if (gridCount < 0) throw InputError(where + "truncated OpenVDB file (grid table)");
     for (std::int32_t g = 0; g < gridCount; ++g) {
-      openvdb::io::GridDescriptor descriptor;
-      descriptor.read(stream);
-      if (!stream || descriptor.getEndPos() > fileSize || descriptor.getGridPos() > descriptor.getEndPos())
+      // The grid descriptor (GridDescriptor::read): name, type, instance parent, offsets.
+      check.skipSized("grid name");
+      check.skipSized("grid type");
+      if (version >= openvdb::OPENVDB_FILE_VERSION_GRID_INSTANCING) check.skipSized("instance parent");
+      const auto gridPos = check.read<std::int64_t>("grid offsets");
+      const auto blockPos = check.read<std::int64_t>("grid offsets");
+      const auto endPos = check.read<std::int64_t>("grid offsets");
+      if (!(0 <= gridPos && gridPos <= blockPos && blockPos <= endPos && endPos <= fileSize))
         throw InputError(where + "truncated OpenVDB file (grid " + std::to_string(g + 1) + " of " +
                          std::to_string(gridCount) + " incomplete)");
-      stream.seekg(descriptor.getEndPos(), std::ios::beg);
+      // The grid's compression flags and its own metadata (Archive::readGrid).
+      stream.seekg(gridPos, std::ios::beg);
+      if (version >= openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) check.read<std::uint32_t>("grid compression");
+      check.skipMetadata("grid metadata");
+      stream.seekg(endPos, std::ios::beg);
     }
   } catch (const InputError&) {
     throw;

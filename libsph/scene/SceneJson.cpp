@@ -63,7 +63,7 @@ namespace {
 constexpr double kLargestScalar = 1e9, kLargestComponent = 1e6, kLargestGravity = 1e3;
 
 std::string shortDump(const json& value) {
-  std::string text = value.dump();
+  std::string text = value.dump(-1, ' ', false, json::error_handler_t::replace);
   if (text.size() > 40) text = text.substr(0, 37) + "...";
   return text;
 }
@@ -1122,7 +1122,12 @@ void setJsonPath(json& root, const std::string& path, const std::string& text, c
   try {
     value = json::parse(text);
   } catch (const json::parse_error&) {
-    value = text;
+    value = text;  // not JSON: a string, which must be UTF-8 as a file's strings are
+    try {
+      (void)value.dump();
+    } catch (const json::type_error&) {
+      throw InputError(label + " " + path + ": the value is not valid UTF-8");
+    }
   } catch (const json::out_of_range&) {
     throw InputError(label + " " + path + "=" + text + ": the number overflows a double");
   }

@@ -140,12 +140,9 @@ struct SolverSettings {
   // --- DFSPH (unused by WCSPH) ---
   Real densityTolerance = Real(0.0005);     ///< relative average density error
   /// DFSPH divergence-free solve: mean predicted relative density change of one step from
-  /// the velocity divergence. SPlisHSPlasH uses 0.1 %; 0.02 % leaves the constant-density
-  /// solve less to correct and quiets resting columns (measured), for no more CPU.
+  /// the velocity divergence (SPlisHSPlasH: 0.1 %; docs/solvers.md).
   Real divergenceTolerance = Real(0.0002);
-  /// DFSPH: most sweeps of each solve per step. The relaxed sweeps (omega 0.6) need more
-  /// than SPlisHSPlasH's 100 in deep water: a 72-layer column needs 60 a step on average
-  /// and hit 100 in bursts, after which it rang (measured).
+  /// DFSPH: most operator products of each solve per step (docs/dfsph-deep-water.md).
   int maxIterations = 300;
 
   // --- adaptive time step ---

@@ -36,44 +36,19 @@ double millisecondsSince(Clock::time_point start) {
 }
 
 constexpr Real kDivergenceWarmStart = Real(0.5);  // divergence solve: half the last stiffness (SPlisHSPlasH)
-// Constant-density solve: the primal-dual active set method with CG on the
-// free set (BoundConstrainedCG.h), from the whole stiffness of the last step (the solve may
-// lower it: an overshoot is taken back, so no half warm start is needed). It stops when the
-// mean predicted compression is below the tolerance and every particle's residual below
-// kMaxResidualShare of it. The mean alone is diluted by depth: a missing share f of the
-// hydrostatic support of an L-layer column shows only in the floor layer, as a residual of
-// f g dt^2 / spacing there and 1/L of that on average; relaxed Jacobi sweeps that stopped on
-// the mean left a resting column unsupported beyond about 80 layers. Measured on
-// a resting 200-layer column (12 x 4 particles across, a/18 spacing): with the largest
-// residual held to 1e-5 (0.02 x 0.05 %) the floor pressure reads 0.99-1.00 rho g H with a
-// step-to-step spread of 0.05 after 0.3 s, in 70-80 products a step; at 1e-4 the spread is
-// 0.3-0.4 and the solve takes 85-100 products, at 5e-4 0.9 and 160-190 (a loose stop leaves
-// noise the next steps must solve), without the bound the column bounces (spread 2-3).
+// Constant-density solve: primal-dual active set with CG on the free set
+// (BoundConstrainedCG.h). It stops when the mean predicted compression is below the
+// tolerance and every particle's below this share of it (the per-particle bound is not
+// diluted by depth). Why these values: docs/dfsph-deep-water.md, "Constants".
 constexpr double kMaxResidualShare = 0.02;
-// Time-step bound from the stiffness: dt <= kStiffnessStepFactor h / sqrt(kappa_max).
-// A particle next to a wall and its own mirror image carry the same stiffness kappa, so
-// the pair's repulsion acts on the particle's distance to the wall as a spring of
-// stiffness ~ kappa V W''(2d), applied explicitly (the solve fixes kappa, not its
-// derivative with position): beyond omega dt = 2 the wall layer oscillates with a
-// growing, alternating amplitude. kappa grows with depth (rho g H at the floor), which
-// is why resting DFSPH water came apart beyond about 80 layers: measured on the
-// 200-layer column (kappa_max = 6.2 m^2/s^2, h = 6.35 mm), the floor-corner particles'
-// speed grew 7-fold a step at dt = 1.5 ms, the column still bounced at 0.8 ms (factor
-// 0.31) and rested at 0.5 ms (0.20). sqrt(kappa) is the speed of a pressure signal,
-// so this is a CFL condition on it; in flowing water (v ~ sqrt(g H)) the velocity CFL
-// binds first.
+// dt <= kStiffnessStepFactor h / sqrt(kappa_max): a CFL condition on the speed of a
+// pressure signal, sqrt(kappa) (the wall layer's explicit spring; ibid.).
 constexpr double kStiffnessStepFactor = 0.2;
-// The constant-density solve stops at this share of densityTolerance: the compression
-// measured at the next step exceeds the solve's linear prediction (particles moved,
-// neighbourhoods changed) by up to 4 %, measured (bench tank: 0.0500-0.0502 % at a
-// tolerance of 0.05 % without the margin, 0.044-0.045 % with it).
+// The solve stops at this share of densityTolerance: the next step's compression exceeds
+// the solve's linear prediction by up to 4 % (ibid.).
 constexpr double kDensityToleranceMargin = 0.9;
-// A step removes at most this much of a compression already there (particles
-// started overlapping, or pushed together by an external impulse): they part
-// over several steps instead of at error * spacing / dt.
-// Measured on the stress suite's overlapping lattices (twice the rest density): with the
-// exact bound-constrained solve, 2 % a step (SPlisHSPlasH's minimum) gave them 2.38 J of
-// kinetic energy, above the 1.78 J the case can release; 1 % gives 0.63 J.
+// Largest share of an existing compression (overlap, impact) removed in one step, so
+// that particles part over several steps instead of at error * spacing / dt (ibid.).
 constexpr Real kMaxErrorPerStep = Real(0.01);
 constexpr std::uint32_t kMinDivergenceNeighbors = 20;  // B&K 2017: no divergence solve at the surface
 constexpr std::uint32_t kNotInLayer = ~std::uint32_t(0);

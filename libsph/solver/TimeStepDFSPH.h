@@ -85,8 +85,8 @@
 
 namespace cascade {
 
-/// Particle layers of resting water up to which DFSPH is measured to hold it still (issue
-/// 19: a 200-layer column at rest after 2 s, floor pressure within 1 % of rho g H; see
+/// Particle layers of resting water up to which DFSPH is measured to hold it still (a
+/// 200-layer column at rest after 2 s, floor pressure within 1 % of rho g H;
 /// docs/dfsph-deep-water.md). Deeper water has not been measured: `cascade bake` warns.
 constexpr int kDfsphStillWaterLayers = 200;
 

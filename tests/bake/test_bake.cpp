@@ -309,6 +309,21 @@ TEST(PortableOut, AMovedShotFolderRerunsWithEveryStageSkipped) {
   fs::remove_all(base);
 }
 
+// Found by fuzz_particle_cache: a point attribute page of size 0 makes Debian's OpenVDB
+// (built with assertions) abort. While it reads, an abort is bad input: exit 2, naming
+// the file (VdbReadScope); the same bytes under another name are read the same way.
+TEST(Cli, ACorruptCacheThatAbortsOpenVdbIsBadInput) {
+  const fs::path dir = freshDir("aborts");
+  fs::create_directories(dir);
+  const fs::path cache = dir / "particles.0001.vdb";
+  fs::copy_file(fs::path(CASCADE_SOURCE_DIR) / "tests/fuzz/openvdb-aborts/page-size-zero.vdb", cache);
+  const fs::path log = dir / "inspect.log";
+  EXPECT_EQ(run({"inspect", cache.string()}, log), 2) << readLog(log);
+  EXPECT_NE(readLog(log).find(cache.string() + ": corrupt OpenVDB file (OpenVDB failed reading it)"),
+            std::string::npos)
+      << readLog(log);
+}
+
 TEST(Cli, VersionNamesCascadeAndItsLibraries) {
   const fs::path log = freshDir("version").string() + ".log";
   EXPECT_EQ(run({"--version"}, log), 0);

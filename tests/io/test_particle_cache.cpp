@@ -1,9 +1,11 @@
 #include "libsph/Errors.h"
 #include "libsph/io/ParticleCache.h"
+#include "libsph/io/AtomicFile.h"
 
 #include "TestTempDir.h"
 
 #include <gtest/gtest.h>
+#include <chrono>
 
 #include <fstream>
 #include <random>
@@ -109,6 +111,32 @@ TEST(ParticleCache, BadFilesAreInputErrorsNamingTheFile) {
       EXPECT_NE(std::string(error.what()).find(name), std::string::npos) << error.what();
     }
   }
+  fs::remove_all(dir);
+}
+
+// Found by fuzz_whitewater: OpenVDB allocates and zero-fills whatever metadata length a
+// corrupt file claims before the read fails (70 s and 11 GiB for a 778-byte file).
+// validateVdbFile checks every length against the file's size first.
+TEST(ParticleCache, ACorruptMetadataLengthIsRefusedAtOnce) {
+  const fs::path dir = freshTempDir("io_lengths");
+  writeParticleFrame(dir / "good.vdb", randomFrame(100, 5));
+  std::string bytes = readTextFile(dir / "good.vdb");
+  // The length before the grid metadata name "cascade_version", made 3.9e9.
+  const std::size_t name = bytes.find("cascade_version");
+  ASSERT_NE(name, std::string::npos);
+  ASSERT_EQ(bytes.substr(name - 4, 4), std::string("\x0f\0\0\0", 4));
+  bytes.replace(name - 4, 4, std::string("\x06\x02\x01\xe9", 4));
+  std::ofstream(dir / "corrupt.vdb", std::ios::binary) << bytes;
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    readParticleFrame(dir / "corrupt.vdb");
+    ADD_FAILURE() << "corrupt.vdb was read";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("corrupt.vdb: corrupt OpenVDB file (metadata name of 3909157382 bytes"),
+              std::string::npos)
+        << error.what();
+  }
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 5.0);
   fs::remove_all(dir);
 }
 

@@ -218,6 +218,15 @@ TEST(SceneJson, AbsurdAndOverflowingNumbersAreNamed) {
             "--set fluid.spacing=1e999: the number overflows a double");
 }
 
+// Found by fuzz_scene: a --set value that is not JSON is taken as a string, and one
+// that is not UTF-8 made a later dump of the scene throw outside InputError (abort).
+TEST(SceneJson, ASetValueThatIsNotUtf8IsRefused) {
+  EXPECT_EQ(loadError(std::string(kMinimal), {"name=caf\xe9"}), "--set name: the value is not valid UTF-8");
+  EXPECT_EQ(loadError(std::string(kMinimal), {"whitewater={}", "whitewater.limits=\xe8uto"}),
+            "--set whitewater.limits: the value is not valid UTF-8");
+  EXPECT_EQ(loadError(std::string(kMinimal), {"name=caf\xc3\xa9"}), "");  // UTF-8 is fine
+}
+
 TEST(SceneJson, SurfaceSettingsAreReadCheckedAndWritten) {
   const scene::Scene scene = scene::parseScene(
       nlohmann::json::parse(R"({"name": "t", "fluid": {"blocks": [{"min": [0,0,0], "max": [1,1,1]}]},

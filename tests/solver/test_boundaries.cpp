@@ -8,6 +8,7 @@
 #include "libsph/boundary/PlaneBoundary.h"
 #include "libsph/boundary/TriangleBand.h"
 #include "libsph/io/AtomicFile.h"
+#include "libsph/io/TriangleMesh.h"
 
 #include <gtest/gtest.h>
 
@@ -494,6 +495,32 @@ TEST(MeshBoundary, BadFilesAreInputErrorsNamingTheFile) {
     EXPECT_NE(std::string(e.what()).find(empty.string()), std::string::npos);
   }
   std::filesystem::remove(empty);
+  // Found by fuzz_mesh: a PLY header without end_header crashed assimp's reader
+  // (out-of-bounds read); PLY obstacles are read by Cascade's own reader.
+  const auto broken = writeTemp("broken.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 3\n"
+                                              "property float x\nproperty float y\nproperty float z\n"
+                                              "   vertex 0 1 1\n  endloop\n endfacet\n");
+  try {
+    MeshBoundary::load(broken, MeshObstacleOptions());
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(broken.string()), std::string::npos) << e.what();
+  }
+  std::filesystem::remove(broken);
+  // The same cube as OBJ and as ASCII PLY (polygons as quads) loads the same.
+  std::string ply = "ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\n"
+                    "property float z\nelement face 6\nproperty list uchar int vertex_indices\nend_header\n"
+                    "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n"
+                    "4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 1 2 6 5\n4 2 3 7 6\n4 3 0 4 7\n";
+  const auto cubePly = writeTemp("cube.ply", ply);
+  const auto cubeObj = writeTemp("cube.obj", kCubeObj);
+  const TriangleMesh fromPly = loadMeshFile(cubePly), fromObj = loadMeshFile(cubeObj);
+  EXPECT_EQ(fromPly.vertices.size(), 8u);
+  EXPECT_EQ(fromPly.triangles.size(), 12u);
+  EXPECT_EQ(countBorderEdges(fromPly), 0u);
+  EXPECT_NEAR(surfaceArea(fromPly), surfaceArea(fromObj), 1e-6);
+  std::filesystem::remove(cubePly);
+  std::filesystem::remove(cubeObj);
 }
 
 namespace {

@@ -3,6 +3,7 @@
 // OBJ and VDB files round-trip; the lattice is world aligned.
 #include "SurfacingTestUtil.h"
 
+#include "libsph/Errors.h"
 #include "libsph/io/TriangleMesh.h"
 #include "surfacing/MeshCleanup.h"
 #include "surfacing/SurfaceStage.h"
@@ -162,6 +163,32 @@ TEST(SurfaceMesh, ObjRoundTripYUp) {
     EXPECT_NEAR(std::abs(surfacing::meshVolume(back)), std::abs(surfacing::meshVolume(result.mesh)), 1e-9);
     EXPECT_GT(surfacing::meshVolume(back), 0);  // rotations keep the outward orientation
   }
+}
+
+// leastSurfaceBytes is a lower bound (a frame refused for it could never have fitted):
+// a ball, the shape with the least surface, takes at least that many band voxels, and
+// a flat slab of the same particles takes more.
+TEST(SurfaceMesh, TheLeastMemoryBoundsTheLevelSetFromBelow) {
+  const auto ball = test::latticeBall(Vec3d(0, 0, 0), 8 * kSpacing, kSpacing);
+  SurfaceOptions options;
+  options.velocity = false;
+  const SurfaceResult result = surfaceParticles(ball, kSpacing, options);
+  const double least = leastSurfaceBytes(ball.size(), kSpacing, 0.5 * kSpacing, false);
+  EXPECT_GT(least, 0);
+  EXPECT_LE(least, 4.0 * double(result.activeVoxels));
+  EXPECT_GT(least, 0.25 * 4.0 * double(result.activeVoxels));  // and not a useless bound
+  std::vector<Vec3r> slab;
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j)
+      for (int k = 0; k < 2 && slab.size() < ball.size(); ++k)
+        slab.emplace_back(Real(i * kSpacing), Real(j * kSpacing), Real(k * kSpacing));
+  const SurfaceResult flat = surfaceParticles(slab, kSpacing, options);
+  EXPECT_LE(leastSurfaceBytes(slab.size(), kSpacing, 0.5 * kSpacing, false),
+            4.0 * double(flat.activeVoxels));
+  // A voxel size far too small for the machine is refused before anything is allocated.
+  SurfaceOptions tiny = options;
+  tiny.voxelSize = 1e-9;
+  EXPECT_THROW(surfaceParticles(ball, kSpacing, tiny), InputError);
 }
 
 TEST(SurfaceMesh, VdbRoundTrip) {

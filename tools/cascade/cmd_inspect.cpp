@@ -114,6 +114,7 @@ void inspectWhitewater(const fs::path& path) {
 void inspectVdb(const fs::path& path) {
   openvdb::initialize();
   validateVdbFile(path);  // truncated or foreign files: InputError before OpenVDB reads them
+  const VdbReadScope reading(path);
   openvdb::GridPtrVecPtr grids;
   try {
     openvdb::io::File file(path.string());

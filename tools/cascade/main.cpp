@@ -2,6 +2,7 @@
 #include "Commands.h"
 
 #include "libsph/Errors.h"
+#include "libsph/io/VdbFile.h"
 #include "libsph/scene/SceneJson.h"
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 
 int main(int argc, char** argv) {
   using namespace cascade;
+  installVdbAbortGuard();  // OpenVDB's assertions on corrupt files: exit 2 (VdbFile.h)
   CLI::App app{"cascade: SPH water simulation, surfacing and preview rendering"};
   app.name("cascade");
   app.require_subcommand(1);
