@@ -170,3 +170,15 @@ TEST(SceneSchema, TheSchemaRefusesWhatTheParserRefuses) {
     EXPECT_THROW(parseScene(resolved, "mistake.json", folder), InputError) << mistake.path;
   }
 }
+
+// docs/tutorial.md shows scenes/tutorial_splash.json in full; the two stay the same.
+TEST(SceneSchema, TheTutorialShowsItsSceneAsShipped) {
+  const std::string tutorial = readTextFile(kSource / "docs" / "tutorial.md");
+  const std::size_t start = tutorial.find("```json\n");
+  ASSERT_NE(start, std::string::npos);
+  const std::size_t end = tutorial.find("```", start + 8);
+  json shown = json::parse(tutorial.substr(start + 8, end - start - 8));
+  json shipped = readJson(kSource / "scenes" / "tutorial_splash.json");
+  shipped.erase("description");
+  EXPECT_EQ(shown, shipped);
+}
