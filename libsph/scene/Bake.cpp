@@ -127,7 +127,8 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
   const OutputLayout layout(options.outDir);
   BakeResult result;
   result.frameCount = scene.output.frameCount();
-  result.inputHash = sceneInputHash(scene);
+  const std::vector<std::string> meshHashes = meshContentHashes(scene);  // each mesh file read once
+  result.inputHash = sceneInputHash(scene, meshHashes);
   const int first = options.frames.first.value_or(1);
   const int last = std::min(options.frames.last.value_or(result.frameCount), result.frameCount);
   if (first > result.frameCount)
@@ -155,7 +156,7 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
   Progress progress(options.log, options.progressTerminal);
 
   // The resolved scene first: a failed bake still says what it ran.
-  const nlohmann::json written = writeResolvedScene(scene, layout.scene());
+  const nlohmann::json written = writeResolvedScene(scene, layout.scene(), meshHashes);
   // The assets, as OUT/scene.json names them (relative to OUT, with their content hash).
   nlohmann::json assets = nlohmann::json::array();
   for (const nlohmann::json& obstacle : written["boundaries"]["obstacles"])

@@ -75,14 +75,22 @@ std::string meshContentHash(const Obstacle& obstacle, int frameCount) {
   return hexHash(addMeshBytes(obstacle, frameCount, fnv1a("", 0)));
 }
 
-std::string sceneInputHash(const Scene& scene) {
+std::vector<std::string> meshContentHashes(const Scene& scene) {
+  std::vector<std::string> hashes;
+  for (const Obstacle& obstacle : scene.boundaries.obstacles)
+    hashes.push_back(meshContentHash(obstacle, scene.output.frameCount()));
+  return hashes;
+}
+
+std::string sceneInputHash(const Scene& scene) { return sceneInputHash(scene, meshContentHashes(scene)); }
+
+std::string sceneInputHash(const Scene& scene, const std::vector<std::string>& meshHashes) {
   json resolved = sceneToJson(scene);
   for (const char* laterStages : {"surface", "whitewater", "camera", "lights"}) resolved.erase(laterStages);
   for (json& obstacle : resolved["boundaries"]["obstacles"]) obstacle.erase("mesh");
   const std::string text = resolved.dump();
   std::uint64_t hash = fnv1a(text.data(), text.size());
-  for (const Obstacle& obstacle : scene.boundaries.obstacles)
-    hash = addMeshBytes(obstacle, scene.output.frameCount(), hash);
+  for (const std::string& meshHash : meshHashes) hash = fnv1a(meshHash.data(), meshHash.size(), hash);
   return hexHash(hash);
 }
 

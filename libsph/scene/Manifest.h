@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace cascade::scene {
 
@@ -29,10 +30,14 @@ std::string hexHash(std::uint64_t hash);
 /// paths, and the bytes of every mesh file it names. Where the files are does not
 /// enter: a scene folder moved elsewhere (a farm node's mount) keeps its hash.
 std::string sceneInputHash(const Scene& scene);
+/// The same from the obstacles' meshContentHashes(), for a caller that has them.
+std::string sceneInputHash(const Scene& scene, const std::vector<std::string>& meshHashes);
 
 /// Hash of an obstacle's mesh bytes (every frame of a deforming sequence up to
 /// `frameCount`), 16 hex digits; a file that cannot be read adds nothing.
 std::string meshContentHash(const Obstacle& obstacle, int frameCount);
+/// meshContentHash() of every obstacle of the scene, in order.
+std::vector<std::string> meshContentHashes(const Scene& scene);
 /// Hash of what `cascade surface` reads: the bake's inputs (`bakeHash`) and the
 /// scene's surface settings.
 std::string surfaceInputHash(const Scene& scene, const std::string& bakeHash);

@@ -1231,7 +1231,7 @@ Scene readResolvedScene(const fs::path& file) {
   return parseSceneIn(readJsonFile(file), context);
 }
 
-json writeResolvedScene(const Scene& scene, const fs::path& file) {
+json writeResolvedScene(const Scene& scene, const fs::path& file, const std::vector<std::string>& meshHashes) {
   json resolved = sceneToJson(scene);
   std::error_code error;
   const fs::path folder = fs::absolute(file, error).parent_path().lexically_normal();
@@ -1240,7 +1240,7 @@ json writeResolvedScene(const Scene& scene, const fs::path& file) {
     const Obstacle& obstacle = scene.boundaries.obstacles[k];
     const fs::path relative = fs::path(obstacle.mesh).lexically_relative(folder);
     if (!relative.empty()) obstacles[k]["mesh"] = relative.generic_string();
-    obstacles[k]["mesh_hash"] = meshContentHash(obstacle, scene.output.frameCount());
+    obstacles[k]["mesh_hash"] = meshHashes.at(k);
   }
   writeTextAtomically(file, resolved.dump(2) + "\n");
   return resolved;

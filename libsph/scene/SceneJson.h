@@ -81,7 +81,9 @@ Scene readResolvedScene(const std::filesystem::path& file);
 /// relative to the file's folder and its content hash ("mesh_hash",
 /// meshContentHash()), so that a bake folder moved with its assets re-runs.
 /// Returns what it wrote.
-nlohmann::json writeResolvedScene(const Scene& scene, const std::filesystem::path& file);
+/// `meshHashes`: meshContentHashes(scene), which the caller usually has already.
+nlohmann::json writeResolvedScene(const Scene& scene, const std::filesystem::path& file,
+                                  const std::vector<std::string>& meshHashes);
 
 /// Levenshtein edit distance (for "did you mean" suggestions).
 std::size_t editDistance(const std::string& a, const std::string& b);

@@ -140,20 +140,22 @@ void addRunCommand(CLI::App& app) {
     const fs::path outDir = defaultOutDir(scene, args->out);
     const OutputLayout layout(outDir);
     const int frameCount = scene.output.frameCount();
-    const std::string bakeHash = scene::sceneInputHash(scene);
+    const std::vector<std::string> meshHashes = scene::meshContentHashes(scene);  // the mesh files, read once
+    const std::string bakeHash = scene::sceneInputHash(scene, meshHashes);
 
     const nlohmann::json manifest = scene::readManifest(layout.manifest());
-    if (scene::stageIsCurrent(manifest, "bake", bakeHash) &&
-        allFramesExist(layout.particlesDir(), "particles", "vdb", frameCount)) {
+    const bool bakeCurrent = scene::stageIsCurrent(manifest, "bake", bakeHash) &&
+                             allFramesExist(layout.particlesDir(), "particles", "vdb", frameCount);
+    if (bakeCurrent) {
       std::cerr << "run: bake: scene unchanged (input hash " << bakeHash << "), skipped\n";
     } else {
       std::cerr << "run: bake " << scene.name << " -> " << outDir.string() << "\n";
       runBake(scene, outDir, "", false, args->ignoreMemory);
     }
     if (!args->noSurface) {
-      // The later stages read OUT/scene.json: it carries this scene's surface and
-      // whitewater settings, camera and lights even when the bake was skipped.
-      scene::writeResolvedScene(scene, layout.scene());
+      // The later stages read OUT/scene.json, with this scene's surface and whitewater
+      // settings, camera and lights: the bake wrote it, unless it was skipped.
+      if (bakeCurrent) scene::writeResolvedScene(scene, layout.scene(), meshHashes);
       std::string whitewaterHash;
       if (scene.whitewater && !args->noWhitewater) {
         whitewaterHash = scene::whitewaterInputHash(scene, bakeHash);
