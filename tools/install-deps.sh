@@ -24,6 +24,7 @@ PACKAGES=(
   libosmesa6-dev libpng-dev
   libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox
+  slurm-wlm munge
 )
 if [ "$with_blender" = 1 ]; then
   PACKAGES+=(blender python3-numpy)

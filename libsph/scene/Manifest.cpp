@@ -5,7 +5,11 @@
 #include "libsph/io/OutputLayout.h"
 #include "libsph/scene/SceneJson.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
 #include <fstream>
 #include <vector>
@@ -49,6 +53,16 @@ std::string whitewaterInputHash(const Scene& scene, const std::string& bakeHash)
 std::string renderInputHash(const Scene& scene, const std::string& surfaceHash, const std::string& whitewaterHash) {
   const json view = sceneToJson(scene);
   return chainHash("render" + view["camera"].dump() + view["lights"].dump() + whitewaterHash, surfaceHash);
+}
+
+StageHashes stageInputHashes(const Scene& scene, const std::vector<std::string>& meshHashes, bool withWhitewater) {
+  StageHashes hashes;
+  hashes.bake = sceneInputHash(scene, meshHashes);
+  if (scene.whitewater && withWhitewater) hashes.whitewater = whitewaterInputHash(scene, hashes.bake);
+  hashes.surface = surfaceInputHash(
+      scene, scene.surface.foamDensity && !hashes.whitewater.empty() ? hashes.whitewater : hashes.bake);
+  hashes.render = renderInputHash(scene, hashes.surface, hashes.whitewater);
+  return hashes;
 }
 
 namespace {
@@ -129,6 +143,22 @@ json readManifest(const fs::path& path) {
 
 void recordStage(const fs::path& path, const std::string& sceneName, const std::string& stage,
                  const json& record) {
+  // Farm jobs of several stages update one manifest at once: read, modify and
+  // rename under an exclusive lock (fcntl, which NFS passes to its lock manager).
+  const fs::path lockPath = path.parent_path() / ("." + path.filename().string() + ".lock");
+  const int lock = ::open(lockPath.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  struct flock whole {};
+  whole.l_type = F_WRLCK;
+  whole.l_whence = SEEK_SET;
+  if (lock >= 0)
+    while (::fcntl(lock, F_SETLKW, &whole) != 0 && errno == EINTR) {
+    }
+  struct Unlock {
+    int fd;
+    ~Unlock() {
+      if (fd >= 0) ::close(fd);  // closing releases the lock
+    }
+  } unlock{lock};
   json manifest = readManifest(path);
   manifest["scene"] = sceneName;
   manifest["stages"][stage] = record;

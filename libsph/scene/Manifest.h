@@ -49,6 +49,15 @@ std::string whitewaterInputHash(const Scene& scene, const std::string& bakeHash)
 std::string renderInputHash(const Scene& scene, const std::string& surfaceHash,
                             const std::string& whitewaterHash = "");
 
+/// The four stages' input hashes as `cascade run` and `cascade farm` chain them:
+/// whitewater (empty when `withWhitewater` is false or the scene has no block) and
+/// surface after the bake (the surface after the whitewater when it makes a foam
+/// grid), render after the surface and the whitewater.
+struct StageHashes {
+  std::string bake, whitewater, surface, render;
+};
+StageHashes stageInputHashes(const Scene& scene, const std::vector<std::string>& meshHashes, bool withWhitewater);
+
 /// Hash of the files in a directory whose names match PREFIX.*.EXT (names,
 /// sizes and modification times; cheap, for stage-skip decisions).
 std::string directoryHash(const std::filesystem::path& dir, const std::string& prefix,

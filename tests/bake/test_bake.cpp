@@ -340,9 +340,11 @@ TEST(Cli, EveryHelpTextIsInTheDocsAndConsistent) {
   const std::string docs = readTextFile(fs::path(CASCADE_SOURCE_DIR) / "docs" / "cli.md");
   const fs::path log = freshDir("help").string() + ".log";
   for (const std::string command :
-       {"", "bake", "whitewater", "surface", "render", "run", "bench", "inspect", "schema"}) {
+       {"", "bake", "whitewater", "surface", "render", "run", "bench", "inspect", "schema", "farm", "farm submit",
+        "farm status", "farm resume"}) {
     std::vector<std::string> args;
-    if (!command.empty()) args.push_back(command);
+    std::istringstream words(command);
+    for (std::string word; words >> word;) args.push_back(word);
     args.push_back("--help");
     ASSERT_EQ(run(args, log), 0) << command;
     // The subcommand's section of the docs: from its heading to the next one.

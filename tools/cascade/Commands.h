@@ -19,5 +19,6 @@ void addRunCommand(CLI::App& app);
 void addBenchCommand(CLI::App& app);
 void addInspectCommand(CLI::App& app);
 void addSchemaCommand(CLI::App& app);
+void addFarmCommand(CLI::App& app);
 
 } // namespace cascade::cli

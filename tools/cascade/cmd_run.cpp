@@ -141,7 +141,8 @@ void addRunCommand(CLI::App& app) {
     const OutputLayout layout(outDir);
     const int frameCount = scene.output.frameCount();
     const std::vector<std::string> meshHashes = scene::meshContentHashes(scene);  // the mesh files, read once
-    const std::string bakeHash = scene::sceneInputHash(scene, meshHashes);
+    const scene::StageHashes hashes = scene::stageInputHashes(scene, meshHashes, !args->noWhitewater);
+    const std::string& bakeHash = hashes.bake;
 
     const nlohmann::json manifest = scene::readManifest(layout.manifest());
     const bool bakeCurrent = scene::stageIsCurrent(manifest, "bake", bakeHash) &&
@@ -156,17 +157,14 @@ void addRunCommand(CLI::App& app) {
       // The later stages read OUT/scene.json, with this scene's surface and whitewater
       // settings, camera and lights: the bake wrote it, unless it was skipped.
       if (bakeCurrent) scene::writeResolvedScene(scene, layout.scene(), meshHashes);
-      std::string whitewaterHash;
-      if (scene.whitewater && !args->noWhitewater) {
-        whitewaterHash = scene::whitewaterInputHash(scene, bakeHash);
+      const std::string& whitewaterHash = hashes.whitewater;
+      if (!whitewaterHash.empty()) {
         std::vector<FrameFiles> outputs{{layout.whitewaterDir(), "whitewater", "vdb"}};
         if (scene.whitewater->ply) outputs.push_back({layout.whitewaterDir(), "whitewater", "ply"});
         runStage("whitewater", outDir, scene.name, whitewaterHash, frameCount, outputs,
                  {{layout.whitewaterDir(), "whitewater", "vdb"}, {layout.whitewaterDir(), "whitewater", "ply"}});
       }
-      // A foam grid makes the surface stage read the whitewater stage's files too.
-      const std::string surfaceHash =
-          scene::surfaceInputHash(scene, scene.surface.foamDensity && !whitewaterHash.empty() ? whitewaterHash : bakeHash);
+      const std::string& surfaceHash = hashes.surface;
       const scene::SurfaceSettings& surface = scene.surface;
       std::vector<FrameFiles> surfaceOutputs;
       if (surface.outputs != "vdb") surfaceOutputs.push_back({layout.meshDir(), "fluid", surface.meshFormat});
@@ -179,7 +177,7 @@ void addRunCommand(CLI::App& app) {
                      "`cascade render OUT --particles` draws the particles)\n";
       } else if (!args->noRender) {
         const FrameFiles frames{layout.renderDir(), "frame", "png"};
-        runStage("render", outDir, scene.name, scene::renderInputHash(scene, surfaceHash, whitewaterHash), frameCount,
+        runStage("render", outDir, scene.name, hashes.render, frameCount,
                  {frames}, {frames});
       }
     }

@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   cli::addBenchCommand(app);
   cli::addInspectCommand(app);
   cli::addSchemaCommand(app);
+  cli::addFarmCommand(app);
   app.footer(
       "Exit status: 0 success; 2 bad input; 3 the simulation became unstable; 1 anything else.");
 
