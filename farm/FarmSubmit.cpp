@@ -15,6 +15,7 @@
 #include <chrono>
 #include <ctime>
 #include <random>
+#include <set>
 
 namespace cascade::farm {
 
@@ -200,6 +201,9 @@ void submitShot(const scene::Scene& scene, const SubmitSettings& settings, std::
   record.options = settings.options;
   record.out = fs::absolute(settings.out).lexically_normal().string();
   if (record.out.size() > 1 && record.out.back() == '/') record.out.pop_back();
+  if (record.out.find_first_of(" \t\n\"'%") != std::string::npos)
+    throw InputError("farm: " + record.out +
+                     ": OUT must not contain white space, quotes or % (Slurm's #SBATCH --output line); give another -o");
   record.cascade = settings.cascade.empty() ? fs::canonical("/proc/self/exe").string() : settings.cascade;
   record.scene = scene.name;
   record.shot.frameCount = scene.output.frameCount();
@@ -254,7 +258,7 @@ void submitShot(const scene::Scene& scene, const SubmitSettings& settings, std::
       for (const FrameStatus& f : status.frames[int(stage)])
         if (f.kind == FrameStatus::Running || f.kind == FrameStatus::Pending)
           throw InputError("farm: " + record.out + " has jobs queued or running (job " + f.job +
-                           "): wait for them (cascade farm status), cancel them (scancel), or give another -o OUT");
+                           "): wait for them (cascade farm status), cancel them (cascade farm cancel), or give another -o OUT");
     record.rounds = previous->rounds;  // the history stays; new rounds follow
   }
 
@@ -319,6 +323,39 @@ void resumeShot(const fs::path& outDir, bool dryRun, std::ostream& log) {
     return;
   }
   submitRound(record, "resume", plan, dryRun, log);
+}
+
+void cancelShot(const fs::path& outDir, std::ostream& log) {
+  const FarmRecord record = readRecord(fs::absolute(outDir).lexically_normal());
+  requireSlurm();
+  std::vector<std::string> ids = recordedJobIds(record);
+  for (const Round& round : record.rounds)
+    if (!round.statusJob.empty()) ids.push_back(round.statusJob);
+  std::map<std::string, JobState> states;
+  try {
+    states = queryJobs(ids);
+  } catch (const std::runtime_error& error) {
+    throw InputError(std::string("farm: cannot ask Slurm about the shot's jobs (") + error.what() + ")");
+  }
+  std::set<std::string> live;  // whole arrays: scancel 12 cancels every task of array 12
+  for (const auto& [id, state] : states)
+    if (state.live()) live.insert(id.substr(0, id.find('_')));
+  if (live.empty()) {
+    log << "farm: nothing of " << record.out << " is queued or running\n";
+    return;
+  }
+  std::vector<std::string> argv{"scancel"};
+  std::string list;
+  for (const std::string& id : live) {
+    argv.push_back(id);
+    list += (list.empty() ? "" : " ") + id;
+  }
+  const CommandOutput output = runCommand(argv);
+  if (output.status != 0)
+    throw std::runtime_error("scancel: " + (output.err.empty() ? "exit " + std::to_string(output.status)
+                                                                : output.err.substr(0, output.err.find('\n'))));
+  log << "farm: cancelled " << live.size() << " job(s) of " << record.out << ": " << list
+      << " (what is on disk stays; `cascade farm resume` continues)\n";
 }
 
 void printStatus(const fs::path& outDir, bool json, bool record, std::ostream& print) {

@@ -32,6 +32,10 @@ void submitShot(const scene::Scene& scene, const SubmitSettings& settings, std::
 /// Submits what is neither done nor queued or running; nothing when all is.
 void resumeShot(const std::filesystem::path& out, bool dryRun, std::ostream& log);
 
+/// `cascade farm cancel OUT`: scancel every job of the shot that is queued or
+/// running (status jobs too); what is on disk stays, and `resume` continues.
+void cancelShot(const std::filesystem::path& out, std::ostream& log);
+
 /// `cascade farm status OUT`: prints each stage's frames by state (or JSON);
 /// `record`: also marks in OUT/manifest.json the stages whose frames are all done.
 void printStatus(const std::filesystem::path& out, bool json, bool record, std::ostream& print);

@@ -341,7 +341,7 @@ TEST(Cli, EveryHelpTextIsInTheDocsAndConsistent) {
   const fs::path log = freshDir("help").string() + ".log";
   for (const std::string command :
        {"", "bake", "whitewater", "surface", "render", "run", "bench", "inspect", "schema", "farm", "farm submit",
-        "farm status", "farm resume"}) {
+        "farm status", "farm resume", "farm cancel"}) {
     std::vector<std::string> args;
     std::istringstream words(command);
     for (std::string word; words >> word;) args.push_back(word);

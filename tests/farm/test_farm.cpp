@@ -279,6 +279,39 @@ TEST(Farm, AFailedBakeChunkCancelsItsDependantsAndStatusSaysSo) {
   EXPECT_TRUE(named);
 }
 
+TEST(Farm, ACancelledShotResumesToTheSameParticlesAsOneBake) {
+  const std::vector<std::string> scene{kScenes + "/dambreak.json", "--set", "size=seed", "--set",
+                                       "output.end_time=0.2"};
+  const fs::path local = scratch("cancel_local"), out = scratch("cancelled");
+  ASSERT_EQ(run(concat(concat({"bake"}, scene), {"-o", local.string()}), local.string() + ".log"), 0);
+  ASSERT_EQ(run(concat(concat({"farm", "submit"}, scene),
+                       {"-o", out.string(), "--chunk", "2", "--task-frames", "2", "--bake-cpus", "1"}),
+                out.string() + ".submit.log"),
+            0)
+      << readLog(out.string() + ".submit.log");
+  const fs::path cancel = out.string() + ".cancel.log";
+  ASSERT_EQ(run({"farm", "cancel", out.string()}, cancel), 0) << readLog(cancel);
+  EXPECT_NE(readLog(cancel).find("farm: cancelled "), std::string::npos) << readLog(cancel);
+  ASSERT_TRUE(waitForShot(out, 300));
+  nlohmann::json status = statusOf(out);
+  for (const char* stage : {"bake", "surface", "render"}) {
+    EXPECT_TRUE(status["stages"][stage]["running"].empty() && status["stages"][stage]["pending"].empty()) << stage;
+    EXPECT_LT(framesIn(status, stage, "done").size(), 12u) << stage;  // the cancel came before the end
+  }
+  const fs::path second = out.string() + ".cancel2.log";
+  ASSERT_EQ(run({"farm", "cancel", out.string()}, second), 0);
+  EXPECT_NE(readLog(second).find("nothing of"), std::string::npos) << readLog(second);
+  ASSERT_EQ(run({"farm", "resume", out.string()}, out.string() + ".resume.log"), 0)
+      << readLog(out.string() + ".resume.log");
+  ASSERT_TRUE(waitForShot(out, 600));
+  status = statusOf(out);
+  for (const char* stage : {"bake", "surface", "render"}) EXPECT_EQ(framesIn(status, stage, "done"), range(1, 12));
+  for (int f = 1; f <= 12; ++f)
+    EXPECT_EQ(particleChecksum(readParticleFrame(OutputLayout(out).particles(f))),
+              particleChecksum(readParticleFrame(OutputLayout(local).particles(f))))
+        << "frame " << f;
+}
+
 TEST(Farm, BadInputGivesExit2AndOneLine) {
   const auto oneLine = [](const fs::path& log) {
     const std::string text = readLog(log);

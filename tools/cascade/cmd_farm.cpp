@@ -1,4 +1,4 @@
-// `cascade farm submit|status|resume` (docs/farm.md): a shot's stages as Slurm jobs.
+// `cascade farm submit|status|resume|cancel` (docs/farm.md): a shot's stages as Slurm jobs.
 #include "Commands.h"
 #include "SceneCommand.h"
 
@@ -11,7 +11,7 @@
 namespace cascade::cli {
 
 void addFarmCommand(CLI::App& app) {
-  CLI::App* farm = app.add_subcommand("farm", "Run a shot's stages as Slurm jobs on a cluster: submit, status, resume");
+  CLI::App* farm = app.add_subcommand("farm", "Run a shot's stages as Slurm jobs on a cluster: submit, status, resume, cancel");
   farm->require_subcommand(1);
 
   CLI::App* submit = farm->add_subcommand(
@@ -80,6 +80,12 @@ void addFarmCommand(CLI::App& app) {
   resume->add_option("OUT", r->out, "Output folder set up by farm submit")->required();
   resume->add_flag("--dry-run", r->dryRun, "Print the job scripts; submit nothing");
   resume->callback([r] { farm::resumeShot(r->out, r->dryRun, std::cout); });
+
+  CLI::App* cancel = farm->add_subcommand(
+      "cancel", "Cancel every job of a farmed shot that is queued or running (what is on disk stays)");
+  auto c = std::make_shared<std::string>();
+  cancel->add_option("OUT", *c, "Output folder set up by farm submit")->required();
+  cancel->callback([c] { farm::cancelShot(*c, std::cout); });
 }
 
 } // namespace cascade::cli
