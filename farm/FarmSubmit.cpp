@@ -189,9 +189,9 @@ void submitRound(FarmRecord& record, const std::string& command, const std::vect
       << (dryRun ? "" : ", then job " + record.rounds.back().statusJob + " records what is done") << "\n";
 }
 
-} // namespace
-
-void submitShot(const scene::Scene& scene, const SubmitSettings& settings, std::ostream& log) {
+/// The shot's record from the scene and the command line (no rounds yet).
+FarmRecord recordFor(const scene::Scene& scene, const SubmitSettings& settings,
+                     const std::vector<std::string>& meshHashes) {
   if (settings.chunk < 1) throw InputError("--chunk: must be >= 1 (got " + std::to_string(settings.chunk) + ")");
   if (settings.taskFrames < 1)
     throw InputError("--task-frames: must be >= 1 (got " + std::to_string(settings.taskFrames) + ")");
@@ -216,84 +216,96 @@ void submitShot(const scene::Scene& scene, const SubmitSettings& settings, std::
   record.surfaceOutputs = scene.surface.outputs;
   record.meshFormat = scene.surface.meshFormat;
   record.whitewaterPly = scene.whitewater && scene.whitewater->ply;
-  const std::vector<std::string> meshHashes = scene::meshContentHashes(scene);
   record.hashes = scene::stageInputHashes(scene, meshHashes, record.shot.whitewater);
-  if (!record.shot.whitewater) record.hashes.whitewater.clear();
+  return record;
+}
 
-  int partitionNodes = 1;
-  if (!settings.dryRun) {
-    requireSlurm();
-    std::vector<Partition> partitions;
-    try {
-      partitions = listPartitions();
-    } catch (const std::runtime_error& error) {
-      throw InputError(std::string("farm: cannot reach the Slurm controller (") + error.what() +
-                       "); is it up, and SLURM_CONF set?");
-    }
-    std::string names;
-    const Partition* chosen = nullptr;
-    for (const Partition& p : partitions) {
-      names += (names.empty() ? "" : ", ") + p.name;
-      if (settings.options.partition.empty() ? p.isDefault : p.name == settings.options.partition) chosen = &p;
-    }
-    if (!chosen) {
-      if (settings.options.partition.empty())
-        throw InputError("farm: the cluster has no default partition: give --partition (one of: " + names + ")");
-      throw InputError("--partition: the cluster has no partition '" + settings.options.partition +
-                       "' (sinfo lists: " + names + ")");
-    }
-    if (record.options.bakeCpus == 0) record.options.bakeCpus = std::max(1, chosen->cpusPerNode);
-    partitionNodes = chosen->nodes;
-  } else if (record.options.bakeCpus == 0) {
-    record.options.bakeCpus = 1;
+/// The partition the jobs go to (the cluster's default when none is named);
+/// fills a bake's default core count from its nodes.
+Partition choosePartition(FarmRecord& record) {
+  requireSlurm();
+  std::vector<Partition> partitions;
+  try {
+    partitions = listPartitions();
+  } catch (const std::runtime_error& error) {
+    throw InputError(std::string("farm: cannot reach the Slurm controller (") + error.what() +
+                     "); is it up, and SLURM_CONF set?");
   }
+  std::string names;
+  const Partition* chosen = nullptr;
+  for (const Partition& p : partitions) {
+    names += (names.empty() ? "" : ", ") + p.name;
+    if (record.options.partition.empty() ? p.isDefault : p.name == record.options.partition) chosen = &p;
+  }
+  if (!chosen) {
+    if (record.options.partition.empty())
+      throw InputError("farm: the cluster has no default partition: give --partition (one of: " + names + ")");
+    throw InputError("--partition: the cluster has no partition '" + record.options.partition + "' (sinfo lists: " +
+                     names + ")");
+  }
+  if (record.options.bakeCpus == 0) record.options.bakeCpus = std::max(1, chosen->cpusPerNode);
+  return *chosen;
+}
 
-  const OutputLayout layout(record.out);
-  std::optional<FarmRecord> previous;
-  std::error_code error;
-  if (fs::is_regular_file(recordPath(record.out), error)) previous = readRecord(record.out);
-  if (previous && !settings.dryRun) {
+/// OUT/farm with a new token (refused while an earlier submit's jobs are live),
+/// the stale outputs of stages whose inputs changed removed, and OUT/scene.json.
+void prepareOut(FarmRecord& record, const std::optional<FarmRecord>& previous, const Partition& partition,
+                const scene::Scene& scene, const std::vector<std::string>& meshHashes, std::ostream& log) {
+  if (previous) {
     const ShotStatus status = currentStatus(*previous, true);
     for (Stage stage : kStages)
       for (const FrameStatus& f : status.frames[int(stage)])
         if (f.kind == FrameStatus::Running || f.kind == FrameStatus::Pending)
           throw InputError("farm: " + record.out + " has jobs queued or running (job " + f.job +
-                           "): wait for them (cascade farm status), cancel them (cascade farm cancel), or give another -o OUT");
+                           "): wait for them (cascade farm status), cancel them (cascade farm cancel), or give "
+                           "another -o OUT");
     record.rounds = previous->rounds;  // the history stays; new rounds follow
   }
+  try {
+    fs::create_directories(farmDir(record.out));
+    record.token = randomToken();
+    writeTextAtomically(farmDir(record.out) / "token", record.token);
+  } catch (const std::exception& failure) {
+    throw InputError("farm: cannot write " + record.out + " (" + failure.what() +
+                     "); give -o a folder on shared storage you can write");
+  }
+  bool shared = false;
+  const std::string kind = filesystemName(fs::path(record.out), shared);
+  log << "farm: OUT is " << record.out << " (" << kind << "); every job first checks that its node sees it\n";
+  if (!shared && partition.nodes > 1)
+    log << "farm: warning: partition " << partition.name << " has " << partition.nodes << " nodes and OUT is on a "
+        << kind << " filesystem: jobs on nodes that do not mount it at the same path stop with exit 2\n";
+  // Outputs made with other inputs go: the status counts files, so they must be this scene's.
+  const OutputLayout layout(record.out);
+  const nlohmann::json manifest = scene::readManifest(layout.manifest());
+  for (Stage stage : kStages) {
+    std::string before;
+    if (previous) before = hashOf(previous->hashes, stage);
+    else if (manifest["stages"].contains(stageName(stage)))
+      before = manifest["stages"][stageName(stage)].value("input_hash", std::string());
+    const std::string& now = hashOf(record.hashes, stage);
+    if (!before.empty() && !now.empty() && before != now) removeStaleOutputs(layout, stage, log);
+  }
+  // The scene the jobs run, with every default filled in (the later stages read it too).
+  scene::writeResolvedScene(scene, layout.scene(), meshHashes);
+  writeRecord(record);
+}
 
+} // namespace
+
+void submitShot(const scene::Scene& scene, const SubmitSettings& settings, std::ostream& log) {
+  const std::vector<std::string> meshHashes = scene::meshContentHashes(scene);
+  FarmRecord record = recordFor(scene, settings, meshHashes);
   if (settings.dryRun) {
     record.token = "(token)";
+    if (record.options.bakeCpus == 0) record.options.bakeCpus = 1;
   } else {
-    try {
-      fs::create_directories(farmDir(record.out));
-      record.token = randomToken();
-      writeTextAtomically(farmDir(record.out) / "token", record.token);
-    } catch (const std::exception& failure) {
-      throw InputError("farm: cannot write " + record.out + " (" + failure.what() +
-                       "); give -o a folder on shared storage you can write");
-    }
-    bool shared = false;
-    const std::string kind = filesystemName(fs::path(record.out), shared);
-    log << "farm: OUT is " << record.out << " (" << kind << "); every job first checks that its node sees it\n";
-    if (!shared && partitionNodes > 1)
-      log << "farm: warning: partition " << (record.options.partition.empty() ? "(default)" : record.options.partition)
-          << " has " << partitionNodes << " nodes and OUT is on a " << kind
-          << " filesystem: jobs on nodes that do not mount it at the same path stop with exit 2\n";
-    // Outputs made with other inputs go: the status counts files, so they must be this scene's.
-    const nlohmann::json manifest = scene::readManifest(layout.manifest());
-    for (Stage stage : kStages) {
-      std::string before;
-      if (previous) before = hashOf(previous->hashes, stage);
-      else if (manifest["stages"].contains(stageName(stage)))
-        before = manifest["stages"][stageName(stage)].value("input_hash", std::string());
-      if (!before.empty() && before != hashOf(record.hashes, stage)) removeStaleOutputs(layout, stage, log);
-    }
-    // The scene the jobs run, with every default filled in (the later stages read it too).
-    scene::writeResolvedScene(scene, layout.scene(), meshHashes);
-    writeRecord(record);
+    const Partition partition = choosePartition(record);
+    std::optional<FarmRecord> previous;
+    std::error_code error;
+    if (fs::is_regular_file(recordPath(record.out), error)) previous = readRecord(record.out);
+    prepareOut(record, previous, partition, scene, meshHashes, log);
   }
-
   const ShotStatus status = shotStatus(record, {}, true);
   const std::vector<PlannedJob> plan = planJobs(record.shot, planningState(record, status));
   log << "farm: " << scene.name << ", " << record.shot.frameCount << " frames in " << record.shot.chunkCount()

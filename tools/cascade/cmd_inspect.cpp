@@ -5,6 +5,7 @@
 
 #include "libsph/Errors.h"
 #include "libsph/io/ParticleCache.h"
+#include "libsph/io/ParticleCompare.h"
 #include "libsph/io/Ply.h"
 #include "libsph/io/TriangleMesh.h"
 #include "libsph/io/VdbFile.h"
@@ -176,14 +177,43 @@ void inspectMesh(const fs::path& path) {
 
 } // namespace
 
+/// `--against B`: the two particle caches matched by id (ParticleCompare.h).
+void compareParticles(const fs::path& a, const fs::path& b) {
+  const ParticleFrame frameA = readParticleFrame(a), frameB = readParticleFrame(b);
+  ParticleDifference d;
+  try {
+    d = compareParticleFrames(frameA, frameB);
+  } catch (const InputError& error) {
+    throw InputError(a.string() + " against " + b.string() + ": " + error.what());
+  }
+  std::printf("file: %s\nagainst: %s\n", a.string().c_str(), b.string().c_str());
+  std::printf("count: %zu %zu\n", frameA.size(), frameB.size());
+  std::printf("matched: %zu (by %s)\n", d.matched, d.byId ? "id" : "file order");
+  std::printf("only_in_a: %zu\nonly_in_b: %zu\n", d.onlyInA, d.onlyInB);
+  std::printf("max_position_difference_m: %.9g (%s %u)\n", d.maxPosition, d.byId ? "id" : "index",
+              unsigned(d.maxPositionId));
+  std::printf("rms_position_difference_m: %.9g\n", d.rmsPosition);
+  if (!frameA.velocity.empty() && !frameB.velocity.empty())
+    std::printf("max_velocity_difference_m_s: %.9g\nrms_velocity_difference_m_s: %.9g\n", d.maxVelocity,
+                d.rmsVelocity);
+  std::printf("time: %.9g %.9g s\n", frameA.time, frameB.time);
+}
+
 void addInspectCommand(CLI::App& app) {
   CLI::App* command = app.add_subcommand("inspect", "Show what a particle cache, VDB, OBJ or PLY file holds");
   auto file = std::make_shared<std::string>();
+  auto against = std::make_shared<std::string>();
   command->add_option("file", *file, "A file: particles.NNNN.vdb | .ply | surface.NNNN.vdb | fluid.NNNN.obj | .ply | whitewater.NNNN.vdb")->required();
-  command->callback([file] {
+  command->add_option("--against", *against,
+                      "Another particle cache: match the particles by id, print the position differences");
+  command->callback([file, against] {
     const fs::path path(*file);
     std::error_code error;
     if (!fs::is_regular_file(path, error)) throw InputError(path.string() + ": file not found");
+    if (!against->empty()) {
+      if (!fs::is_regular_file(*against, error)) throw InputError(*against + ": file not found");
+      return compareParticles(path, *against);
+    }
     const std::string extension = path.extension().string();
     if (extension == ".vdb") inspectVdb(path);
     else if (extension == ".ply") plyHasFaces(path) ? inspectMesh(path) : inspectParticles(path);
