@@ -80,7 +80,7 @@ FarmRecord fromJson(const json& j, const std::string& file) {
     r.shot.whitewater = j.at("whitewater").get<bool>();
     r.shot.render = j.at("render").get<bool>();
     r.shot.surfaceReadsWhitewater = j.at("surface_reads_whitewater").get<bool>();
-    r.shot.whitewaterNeedsWholeBake = j.at("whitewater_needs_whole_bake").get<bool>();
+    r.shot.whitewaterNeedsWholeBake = j.value("whitewater_needs_whole_bake", false);  // absent from records older than it
     if (r.shot.frameCount < 1 || r.shot.chunk < 1 || r.shot.taskFrames < 1)
       throw InputError(file + ": frame_count, chunk and task_frames must be >= 1");
     r.surfaceOutputs = j.at("surface_outputs").get<std::string>();

@@ -22,7 +22,7 @@ struct JobOptions {
   std::string partition, account;
   std::string bakeTime, taskTime;   ///< --time of bake/whitewater jobs and of surface/render tasks
   int bakeCpus = 1, taskCpus = 1;   ///< --cpus-per-task
-  std::string bakeMemory;           ///< --mem of bake jobs (empty: the cluster's default)
+  std::string bakeMemory;           ///< --mem of bake and whitewater jobs (empty: the cluster's default)
   std::vector<std::string> sbatch;  ///< more #SBATCH options for every job
   std::vector<std::string> setup;   ///< shell lines every job runs before cascade
 };

@@ -320,6 +320,13 @@ void submitShot(const scene::Scene& scene, const SubmitSettings& settings, std::
 
 void resumeShot(const fs::path& outDir, bool dryRun, std::ostream& log) {
   FarmRecord record = readRecord(fs::absolute(outDir).lexically_normal());
+  const ShotStatus onDisk = shotStatus(record, {}, false);
+  bool allDone = true;
+  for (Stage stage : kStages) allDone = allDone && onDisk.complete(stage);
+  if (allDone) {
+    log << "farm: nothing to submit: every frame of every stage is done in " << record.out << "\n";
+    return;
+  }
   if (!dryRun) requireSlurm();
   const ShotStatus status = currentStatus(record, true);
   const std::vector<PlannedJob> plan = planJobs(record.shot, planningState(record, status));

@@ -41,7 +41,8 @@ std::string taskList(const std::vector<int>& tasks) {
   return list;
 }
 
-/// The header every job shares: options, then the check that this node sees OUT.
+/// The header every job shares: options (`bake`: those of the bake and whitewater
+/// chains, else those of the array tasks), then the check that this node sees OUT.
 std::string header(const FarmRecord& record, const std::string& name, const std::string& log, bool bake,
                    const std::string& what) {
   const JobOptions& o = record.options;
@@ -114,10 +115,8 @@ std::string jobScript(const FarmRecord& record, int round, const PlannedJob& job
 std::string statusScriptName(int round) { return roundDir(round) + "status.sh"; }
 
 std::string statusScript(const FarmRecord& record, int round) {
-  FarmRecord quick = record;
-  quick.options.bakeMemory.clear();
   std::ostringstream s;
-  s << header(quick, record.scene + ".status", "status.round-" + std::to_string(round) + ".%j.log", false,
+  s << header(record, record.scene + ".status", "status.round-" + std::to_string(round) + ".%j.log", false,
               "cascade farm round " + std::to_string(round) +
                   ": once the round's jobs have ended, what is done (recorded in OUT/manifest.json)");
   s << "exec \"$CASCADE\" farm status \"$OUT\" --record\n";

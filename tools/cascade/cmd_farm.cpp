@@ -37,7 +37,7 @@ void addFarmCommand(CLI::App& app) {
   submit->add_option("--task-time", o.taskTime, "Time limit of each surface and render task");
   submit->add_option("--bake-cpus", o.bakeCpus, "Cores of each bake and whitewater job (default: a node's)");
   submit->add_option("--task-cpus", o.taskCpus, "Cores of each surface and render task")->capture_default_str();
-  submit->add_option("--bake-mem", o.bakeMemory, "Memory of each bake job (sbatch --mem, e.g. 16G)");
+  submit->add_option("--bake-mem", o.bakeMemory, "Memory of each bake and whitewater job (sbatch --mem, e.g. 16G)");
   submit->add_option("--sbatch", o.sbatch, "One more sbatch option for every job, e.g. --sbatch=--qos=high")
       ->expected(1)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
