@@ -105,7 +105,7 @@ ShotState planningState(const FarmRecord& record, const ShotStatus& status) {
     for (const FrameStatus& f : status[stage]) {
       FrameState s;
       s.done = f.kind == FrameStatus::Done;
-      if (f.kind == FrameStatus::Running || f.kind == FrameStatus::Pending) s.liveJob = f.job;
+      if (f.live()) s.liveJob = f.job;
       state[stage].push_back(s);
     }
   }

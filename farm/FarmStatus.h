@@ -20,6 +20,7 @@ struct FrameStatus {
   enum Kind { Done, Running, Pending, Failed, Missing, Unknown } kind = Missing;
   std::string job;     ///< the Slurm id of the job (or array task) that covers it
   std::string detail;  ///< for a failed frame: "FAILED, exit 3", "CANCELLED (DependencyNeverSatisfied)", ...
+  bool live() const { return kind == Running || kind == Pending; }  ///< its job is queued or running
 };
 const char* kindName(FrameStatus::Kind kind);
 

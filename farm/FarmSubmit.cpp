@@ -63,28 +63,21 @@ std::string filesystemName(fs::path path, bool& shared) {
   }
 }
 
-/// Removes frames DIR/PREFIX.NNNN.EXT.
-void removeFrames(const fs::path& dir, const std::string& prefix, const std::string& extension) {
-  std::error_code error;
-  for (int f : listFrames(dir, prefix, extension))
-    fs::remove(dir / (prefix + "." + OutputLayout::pad(f) + "." + extension), error);
-}
-
 /// What a stage made before with other inputs goes, so no stale frame counts as done.
 void removeStaleOutputs(const OutputLayout& layout, Stage stage, std::ostream& log) {
   log << "farm: " << stageName(stage) << ": inputs changed since the last run; its old frames are removed\n";
   switch (stage) {
-  case Stage::Bake: removeFrames(layout.particlesDir(), "particles", "vdb"); break;
+  case Stage::Bake: removeFrameFiles(layout.particlesDir(), "particles", "vdb"); break;
   case Stage::Whitewater:
-    removeFrames(layout.whitewaterDir(), "whitewater", "vdb");
-    removeFrames(layout.whitewaterDir(), "whitewater", "ply");
+    removeFrameFiles(layout.whitewaterDir(), "whitewater", "vdb");
+    removeFrameFiles(layout.whitewaterDir(), "whitewater", "ply");
     break;
   case Stage::Surface:
-    removeFrames(layout.surfaceDir(), "surface", "vdb");
-    removeFrames(layout.meshDir(), "fluid", "obj");
-    removeFrames(layout.meshDir(), "fluid", "ply");
+    removeFrameFiles(layout.surfaceDir(), "surface", "vdb");
+    removeFrameFiles(layout.meshDir(), "fluid", "obj");
+    removeFrameFiles(layout.meshDir(), "fluid", "ply");
     break;
-  case Stage::Render: removeFrames(layout.renderDir(), "frame", "png"); break;
+  case Stage::Render: removeFrameFiles(layout.renderDir(), "frame", "png"); break;
   }
 }
 
@@ -115,6 +108,13 @@ void requireSlurm() {
   if (findOnPath("sbatch").empty() || findOnPath("squeue").empty() || findOnPath("sinfo").empty())
     throw InputError("farm: Slurm's sbatch, squeue and sinfo are not on PATH: run on a submit host of the "
                      "cluster (Debian: apt-get install slurm-client), or --dry-run to print the job scripts");
+}
+
+/// A job script, written atomically and made executable; returns its path.
+fs::path writeScript(const fs::path& path, const std::string& text) {
+  writeTextAtomically(path, text);
+  fs::permissions(path, fs::perms::owner_exec | fs::perms::group_exec, fs::perm_options::add);
+  return path;
 }
 
 /// Writes the round's scripts and submits them in order (each after the jobs it
@@ -150,9 +150,7 @@ void submitRound(FarmRecord& record, const std::string& command, const std::vect
           << text;
       continue;
     }
-    const fs::path script = out / name;
-    writeTextAtomically(script, text);
-    fs::permissions(script, fs::perms::owner_exec | fs::perms::group_exec, fs::perm_options::add);
+    const fs::path script = writeScript(out / name, text);
     try {
       ids[k] = submitScript(script.string(), dependency);
     } catch (const std::runtime_error& error) {
@@ -174,9 +172,7 @@ void submitRound(FarmRecord& record, const std::string& command, const std::vect
     log << "# ---- " << statusScriptName(number) << " (sbatch --dependency=afterany" << after << ")\n"
         << statusScript(record, number);
   } else {
-    const fs::path script = out / statusScriptName(number);
-    writeTextAtomically(script, statusScript(record, number));
-    fs::permissions(script, fs::perms::owner_exec, fs::perm_options::add);
+    const fs::path script = writeScript(out / statusScriptName(number), statusScript(record, number));
     record.rounds.back().statusJob = submitScript(script.string(), "afterany" + after);
     writeRecord(record);
   }
@@ -255,7 +251,7 @@ void prepareOut(FarmRecord& record, const std::optional<FarmRecord>& previous, c
     const ShotStatus status = currentStatus(*previous, true);
     for (Stage stage : kStages)
       for (const FrameStatus& f : status.frames[int(stage)])
-        if (f.kind == FrameStatus::Running || f.kind == FrameStatus::Pending)
+        if (f.live())
           throw InputError("farm: " + record.out + " has jobs queued or running (job " + f.job +
                            "): wait for them (cascade farm status), cancel them (cascade farm cancel), or give "
                            "another -o OUT");
@@ -334,7 +330,7 @@ void resumeShot(const fs::path& outDir, bool dryRun, std::ostream& log) {
     int live = 0;
     for (Stage stage : kStages)
       for (const FrameStatus& f : status.frames[int(stage)])
-        live += f.kind == FrameStatus::Running || f.kind == FrameStatus::Pending;
+        live += f.live();
     log << "farm: nothing to submit: every frame is done" << (live ? " or queued (" + std::to_string(live) +
                                                                            " stage-frames running or pending)"
                                                                      : "")

@@ -84,4 +84,10 @@ std::vector<int> listFrames(const std::filesystem::path& dir, const std::string&
   return frames;
 }
 
+void removeFrameFiles(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension) {
+  std::error_code error;
+  for (int f : listFrames(dir, prefix, extension))
+    std::filesystem::remove(dir / (prefix + "." + OutputLayout::pad(f) + "." + extension), error);
+}
+
 } // namespace cascade

@@ -66,4 +66,8 @@ std::optional<int> frameOfFileName(const std::string& name, const std::string& p
 std::vector<int> listFrames(const std::filesystem::path& dir, const std::string& prefix,
                             const std::string& extension);
 
+/// Removes every file of `dir` named PREFIX.NNNN.EXT (a stage's frames made from
+/// other inputs); files that cannot be removed are left.
+void removeFrameFiles(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension);
+
 } // namespace cascade

@@ -2,13 +2,11 @@
 
 #include "libsph/bodies/DeformingMesh.h"
 #include "libsph/io/AtomicFile.h"
-#include "libsph/io/OutputLayout.h"
 #include "libsph/scene/SceneJson.h"
 
 #include <fcntl.h>
 #include <unistd.h>
 
-#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <fstream>
@@ -105,24 +103,6 @@ std::string sceneInputHash(const Scene& scene, const std::vector<std::string>& m
   const std::string text = resolved.dump();
   std::uint64_t hash = fnv1a(text.data(), text.size());
   for (const std::string& meshHash : meshHashes) hash = fnv1a(meshHash.data(), meshHash.size(), hash);
-  return hexHash(hash);
-}
-
-std::string directoryHash(const fs::path& dir, const std::string& prefix, const std::string& extension) {
-  std::vector<std::string> entries;
-  std::error_code error;
-  if (fs::is_directory(dir, error)) {
-    for (const auto& entry : fs::directory_iterator(dir, error)) {
-      const std::string name = entry.path().filename().string();
-      if (!matchesPrefixAndExtension(name, prefix, extension)) continue;
-      const auto size = fs::file_size(entry.path(), error);
-      const auto time = fs::last_write_time(entry.path(), error).time_since_epoch().count();
-      entries.push_back(name + ":" + std::to_string(size) + ":" + std::to_string(time));
-    }
-  }
-  std::sort(entries.begin(), entries.end());
-  std::uint64_t hash = fnv1a("", 0);
-  for (const std::string& entry : entries) hash = fnv1a(entry.data(), entry.size() + 1, hash);
   return hexHash(hash);
 }
 

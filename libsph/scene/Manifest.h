@@ -58,11 +58,6 @@ struct StageHashes {
 };
 StageHashes stageInputHashes(const Scene& scene, const std::vector<std::string>& meshHashes, bool withWhitewater);
 
-/// Hash of the files in a directory whose names match PREFIX.*.EXT (names,
-/// sizes and modification times; cheap, for stage-skip decisions).
-std::string directoryHash(const std::filesystem::path& dir, const std::string& prefix,
-                          const std::string& extension);
-
 /// The manifest at `path`, or an empty one ({"stages": {}}) if it does not
 /// exist or cannot be parsed.
 nlohmann::json readManifest(const std::filesystem::path& path);

@@ -43,6 +43,19 @@ std::vector<std::string> concat(std::vector<std::string> a, const std::vector<st
   return a;
 }
 
+/// `cascade farm submit SCENE... -o OUT --chunk C --task-frames M --bake-cpus 1`
+/// (one core each, so the arrays overlap the bake on the 2-core test node);
+/// exit 0 or an EXPECT failure with its log. Returns the log's text.
+std::string submitShot(const std::vector<std::string>& scene, const fs::path& out, int chunk, int taskFrames) {
+  const fs::path log = out.string() + ".submit.log";
+  const int status = run(concat(concat({"farm", "submit"}, scene),
+                                {"-o", out.string(), "--chunk", std::to_string(chunk), "--task-frames",
+                                 std::to_string(taskFrames), "--bake-cpus", "1"}),
+                         log);
+  EXPECT_EQ(status, 0) << readLog(log);
+  return status == 0 ? readLog(log) : "";
+}
+
 /// `cascade farm status OUT --json`.
 nlohmann::json statusOf(const fs::path& out) {
   const fs::path log = out.string() + ".status.json";
@@ -101,13 +114,9 @@ TEST(Farm, AFarmedShotEqualsALocalRunFileForFile) {
   const fs::path local = scratch("local"), farmed = scratch("farmed");
   ASSERT_EQ(run(concat({"run"}, concat(bunnyScene(), {"-o", local.string()})), local.string() + ".log"), 0)
       << readLog(local.string() + ".log");
-  const fs::path log = farmed.string() + ".submit.log";
-  ASSERT_EQ(run(concat({"farm", "submit"}, concat(bunnyScene(), {"-o", farmed.string(), "--chunk", "10",
-                                                                   "--task-frames", "5", "--bake-cpus", "1"})),
-                log),
-            0)
-      << readLog(log);
-  EXPECT_NE(readLog(log).find("bake frames 11-20: job"), std::string::npos) << readLog(log);
+  const std::string submitted = submitShot(bunnyScene(), farmed, 10, 5);
+  ASSERT_FALSE(submitted.empty());
+  EXPECT_NE(submitted.find("bake frames 11-20: job"), std::string::npos) << submitted;
   ASSERT_TRUE(waitForShot(farmed, 900)) << "the shot did not finish in 15 minutes";
 
   const nlohmann::json status = statusOf(farmed);
@@ -152,13 +161,9 @@ TEST(Farm, AFarmedFloatingBodyShotWithWhitewaterEqualsALocalRun) {
   const fs::path local = scratch("drop_local"), farmed = scratch("drop_farmed");
   ASSERT_EQ(run(concat(concat({"run"}, scene), {"-o", local.string()}), local.string() + ".log"), 0)
       << readLog(local.string() + ".log");
-  const fs::path log = farmed.string() + ".submit.log";
-  ASSERT_EQ(run(concat(concat({"farm", "submit"}, scene),
-                       {"-o", farmed.string(), "--chunk", "6", "--task-frames", "3", "--bake-cpus", "1"}),
-                log),
-            0)
-      << readLog(log);
-  EXPECT_NE(readLog(log).find("whitewater frames 7-12: job"), std::string::npos) << readLog(log);
+  const std::string submitted = submitShot(scene, farmed, 6, 3);
+  ASSERT_FALSE(submitted.empty());
+  EXPECT_NE(submitted.find("whitewater frames 7-12: job"), std::string::npos) << submitted;
   ASSERT_TRUE(waitForShot(farmed, 900));
   const nlohmann::json status = statusOf(farmed);
   for (const char* stage : {"bake", "whitewater", "surface", "render"})
@@ -178,12 +183,7 @@ TEST(Farm, AFarmedFloatingBodyShotWithWhitewaterEqualsALocalRun) {
 
 TEST(Farm, AKilledRenderTaskIsNamedByStatusAndCompletedByResume) {
   const fs::path out = scratch("killed");
-  const fs::path log = out.string() + ".submit.log";
-  ASSERT_EQ(run(concat({"farm", "submit"}, concat(bunnyScene(), {"-o", out.string(), "--chunk", "15",
-                                                                   "--task-frames", "5", "--bake-cpus", "1"})),
-                log),
-            0)
-      << readLog(log);
+  ASSERT_FALSE(submitShot(bunnyScene(), out, 15, 5).empty());
   // While it runs, a second submit into the same OUT is refused.
   const fs::path again = out.string() + ".again.log";
   EXPECT_EQ(run(concat({"farm", "submit"}, concat(bunnyScene(), {"-o", out.string()})), again), 2);
@@ -249,12 +249,7 @@ TEST(Farm, AFailedBakeChunkCancelsItsDependantsAndStatusSaysSo) {
   ASSERT_FALSE(fs::exists(OutputLayout(local).particles(2)));
 
   const fs::path out = scratch("unstable");
-  const fs::path log = out.string() + ".submit.log";
-  ASSERT_EQ(run(concat(concat({"farm", "submit"}, scene),
-                       {"-o", out.string(), "--chunk", "1", "--task-frames", "1", "--bake-cpus", "1"}),
-                log),
-            0)
-      << readLog(log);
+  ASSERT_FALSE(submitShot(scene, out, 1, 1).empty());
   ASSERT_TRUE(waitForShot(out, 600));
   const nlohmann::json status = statusOf(out);
   for (const char* stage : {"bake", "surface", "render"}) {
@@ -284,11 +279,7 @@ TEST(Farm, ACancelledShotResumesToTheSameParticlesAsOneBake) {
                                        "output.end_time=0.2"};
   const fs::path local = scratch("cancel_local"), out = scratch("cancelled");
   ASSERT_EQ(run(concat(concat({"bake"}, scene), {"-o", local.string()}), local.string() + ".log"), 0);
-  ASSERT_EQ(run(concat(concat({"farm", "submit"}, scene),
-                       {"-o", out.string(), "--chunk", "2", "--task-frames", "2", "--bake-cpus", "1"}),
-                out.string() + ".submit.log"),
-            0)
-      << readLog(out.string() + ".submit.log");
+  ASSERT_FALSE(submitShot(scene, out, 2, 2).empty());
   const fs::path cancel = out.string() + ".cancel.log";
   ASSERT_EQ(run({"farm", "cancel", out.string()}, cancel), 0) << readLog(cancel);
   EXPECT_NE(readLog(cancel).find("farm: cancelled "), std::string::npos) << readLog(cancel);

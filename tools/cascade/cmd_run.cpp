@@ -69,14 +69,6 @@ bool allFramesExist(const fs::path& dir, const std::string& prefix, const std::s
   return found == count;
 }
 
-void removeOutputs(const fs::path& dir, const std::string& prefix, const std::string& extension) {
-  std::error_code error;
-  for (int f : listFrames(dir, prefix, extension)) {
-    const fs::path file = dir / (prefix + "." + OutputLayout::pad(f) + "." + extension);
-    fs::remove(file, error);
-  }
-}
-
 double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -102,7 +94,7 @@ void runStage(const std::string& stage, const fs::path& outDir, const std::strin
     std::cerr << "run: " << stage << ": inputs unchanged, skipped\n";
     return;
   }
-  for (const FrameFiles& files : stale) removeOutputs(files.dir, files.prefix, files.extension);
+  for (const FrameFiles& files : stale) removeFrameFiles(files.dir, files.prefix, files.extension);
   std::cerr << "run: " << stage << "...\n";
   const auto start = std::chrono::steady_clock::now();
   const int status = runSelf({stage, outDir.string()});
