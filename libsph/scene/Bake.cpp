@@ -249,6 +249,9 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
       line << std::defaultfloat;
     }
     progress.message(line.str());
+    if (scene.solver.type == "wcsph" && scene.solver.kernels == "auto" &&
+        simulation.settings().solver.kernels == KernelPair::CubicSpline)
+      progress.message("bake: WCSPH kernels cubic_spline (solver.kernels \"auto\": a rigid body floats)");
   }
   const std::uint64_t stepsBefore = simulation.stepCount();
   const auto recordBake = [&](bool done, const std::string& error) {

@@ -69,9 +69,10 @@ struct Solver {
   double stiffness = 0;              ///< k of SEED (10), m^2/s^2; 0: (10 expected_speed)^2
   double taitExponent = 7;
   bool clampNegativePressure = true;
-  /// WCSPH density / pressure-gradient kernels: "wendland_c2" | "cubic_spline" |
-  /// "mueller2003" (the SEED's poly6 / spiky pair)
-  std::string kernels = "wendland_c2";
+  /// WCSPH density / pressure-gradient kernels: "auto" (cubic_spline when a rigid
+  /// body floats, else wendland_c2) | "wendland_c2" | "cubic_spline" | "mueller2003"
+  /// (the SEED's poly6 / spiky pair)
+  std::string kernels = "auto";
   /// WCSPH pressure force: "hamiltonian" (Monaghan 1992) | "symmetric" | "mueller_half" (SEED (5) as printed)
   std::string pressureForce = "hamiltonian";
   bool surfaceLayerPressure = true;  ///< WCSPH: top layer keeps rho_0 |g| s / 2

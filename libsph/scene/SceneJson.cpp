@@ -744,7 +744,7 @@ Scene parseSceneIn(const json& value, const Context& context) {
     s.stiffness = solver.number("stiffness", s.stiffness, Range::NonNegative);
     s.taitExponent = solver.numberIn("tait_exponent", s.taitExponent, 1, 10);
     s.clampNegativePressure = solver.boolean("clamp_negative_pressure", s.clampNegativePressure);
-    s.kernels = solver.choice("kernels", s.kernels, {"wendland_c2", "cubic_spline", "mueller2003"});
+    s.kernels = solver.choice("kernels", s.kernels, {"auto", "wendland_c2", "cubic_spline", "mueller2003"});
     s.pressureForce = solver.choice("pressure_force", s.pressureForce, {"hamiltonian", "symmetric", "mueller_half"});
     s.surfaceLayerPressure = solver.boolean("surface_layer_pressure", s.surfaceLayerPressure);
     s.density = solver.choice("density", s.density, {"summation", "continuity"});

@@ -86,7 +86,7 @@ const std::vector<KeyDoc>& keyDocs() {
       {"solver.stiffness", "m^2/s^2", "k of SEED (10), the squared speed of sound; 0: (10 x expected speed)^2."},
       {"solver.tait_exponent", "", "gamma of Tait's equation."},
       {"solver.clamp_negative_pressure", "", "WCSPH: p = max(p, 0), no tensile pull at the free surface."},
-      {"solver.kernels", "", "WCSPH density and pressure-gradient kernels; `mueller2003` is the SEED's poly6 / spiky pair."},
+      {"solver.kernels", "", "WCSPH density and pressure-gradient kernels. `auto`: `cubic_spline` when a rigid body floats (the Wendland C2 lattice holds a floating body off its draft), else `wendland_c2`; `mueller2003` is the SEED's poly6 / spiky pair."},
       {"solver.pressure_force", "", "WCSPH pressure force: `hamiltonian` (Monaghan 1992), `symmetric`, or SEED (5) as printed (`mueller_half`)."},
       {"solver.surface_layer_pressure", "", "WCSPH summation density: the top particle layer keeps the pressure rho_0 g spacing / 2 instead of 0."},
       {"solver.density", "", "WCSPH density: `summation`, SEED (4), or `continuity` (integrated, with density diffusion)."},

@@ -111,7 +111,8 @@ SimulationSettings simulationSettings(const Scene& scene) {
   solver.clampNegativePressure = s.clampNegativePressure;
   solver.kernels = s.kernels == "mueller2003"    ? KernelPair::Mueller2003
                    : s.kernels == "cubic_spline" ? KernelPair::CubicSpline
-                                                 : KernelPair::WendlandC2;
+                   : s.kernels == "wendland_c2"  ? KernelPair::WendlandC2
+                                                 : KernelPair::Automatic;
   solver.pressureForce = s.pressureForce == "symmetric"      ? PressureForce::Symmetric
                          : s.pressureForce == "mueller_half" ? PressureForce::MuellerHalf
                                                              : PressureForce::Hamiltonian;

@@ -237,6 +237,12 @@ void Simulation::compressHydrostatically(const FluidBoxRecord& box) {
 
 void Simulation::start() {
   if (mStarted) return;
+  if (mSettings.solver.kernels == KernelPair::Automatic) {
+    bool floating = false;
+    for (const BoundaryPtr& b : mBoundaries)
+      if (const auto* moving = dynamic_cast<const MovingBoundary*>(b.get())) floating = floating || moving->isDynamic();
+    mSettings.solver.kernels = floating ? KernelPair::CubicSpline : KernelPair::WendlandC2;
+  }
   const SolverSettings& solver = mSettings.solver;
   // Expected speed: free fall over the height of the scene, or the fastest particle.
   Real expected = solver.expectedSpeed;

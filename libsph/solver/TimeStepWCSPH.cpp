@@ -52,6 +52,7 @@ struct KernelConstants {
         valueCoeff = KernelCubicSpline(h).valueCoeff;
         gradientCoeff = KernelCubicSpline(h).gradientCoeff;
         break;
+      case KernelPair::Automatic:  // chosen in Simulation::start
       case KernelPair::WendlandC2:
         valueCoeff = KernelWendlandC2(h).valueCoeff;
         gradientCoeff = KernelWendlandC2(h).gradientCoeff;
@@ -164,6 +165,7 @@ void addPairTerms(const ForceConstants& k, const ForceQuery& q, const wcsph::Pai
   switch (k.kernel.pair) {
     case KernelPair::Mueller2003: return addPairTerms<KernelPair::Mueller2003>(k, q, pj, sums);
     case KernelPair::CubicSpline: return addPairTerms<KernelPair::CubicSpline>(k, q, pj, sums);
+    case KernelPair::Automatic:  // chosen in Simulation::start
     case KernelPair::WendlandC2: return addPairTerms<KernelPair::WendlandC2>(k, q, pj, sums);
   }
 }
@@ -390,6 +392,7 @@ ForceSums forceSums(const ForceConstants& k, const wcsph::PairInput* particles, 
   switch (k.kernel.pair) {
     case KernelPair::Mueller2003: return forceSums<KernelPair::Mueller2003>(k, particles, q, neighbors, count);
     case KernelPair::CubicSpline: return forceSums<KernelPair::CubicSpline>(k, particles, q, neighbors, count);
+    case KernelPair::Automatic:  // chosen in Simulation::start
     case KernelPair::WendlandC2: return forceSums<KernelPair::WendlandC2>(k, particles, q, neighbors, count);
   }
   return {};
@@ -410,6 +413,7 @@ Real kernelSum(const KernelConstants& k, const wcsph::PairInput* particles, cons
   switch (k.pair) {
     case KernelPair::Mueller2003: return kernelSum<KernelPair::Mueller2003>(k, particles, q, neighbors, count);
     case KernelPair::CubicSpline: return kernelSum<KernelPair::CubicSpline>(k, particles, q, neighbors, count);
+    case KernelPair::Automatic:  // chosen in Simulation::start
     case KernelPair::WendlandC2: return kernelSum<KernelPair::WendlandC2>(k, particles, q, neighbors, count);
   }
   return 0;
@@ -420,6 +424,7 @@ Real valueShape(const KernelConstants& k, Real r2) {
   switch (k.pair) {
     case KernelPair::Mueller2003: return valueShape<KernelPair::Mueller2003>(k, r2);
     case KernelPair::CubicSpline: return valueShape<KernelPair::CubicSpline>(k, r2);
+    case KernelPair::Automatic:  // chosen in Simulation::start
     case KernelPair::WendlandC2: return valueShape<KernelPair::WendlandC2>(k, r2);
   }
   return 0;

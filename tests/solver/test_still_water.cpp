@@ -162,6 +162,7 @@ INSTANTIATE_TEST_SUITE_P(KernelPairs, CompressedClosedBox,
                              case KernelPair::WendlandC2: return std::string("WendlandC2");
                              case KernelPair::CubicSpline: return std::string("CubicSpline");
                              case KernelPair::Mueller2003: return std::string("Mueller2003");
+                             case KernelPair::Automatic: return std::string("Automatic");
                            }
                            return std::string("unknown");
                          });

@@ -22,6 +22,7 @@ std::string pairName(KernelPair pair) {
     case KernelPair::Mueller2003: return "mueller2003";
     case KernelPair::CubicSpline: return "cubic_spline";
     case KernelPair::WendlandC2: return "wendland_c2";
+    case KernelPair::Automatic: return "auto";
   }
   return "?";
 }
