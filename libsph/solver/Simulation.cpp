@@ -236,13 +236,14 @@ void Simulation::compressHydrostatically(const FluidBoxRecord& box) {
 }
 
 void Simulation::start() {
-  if (mStarted) return;
+  // Before the started check: a simulation restored from a checkpoint is started.
   if (mSettings.solver.kernels == KernelPair::Automatic) {
     bool floating = false;
     for (const BoundaryPtr& b : mBoundaries)
       if (const auto* moving = dynamic_cast<const MovingBoundary*>(b.get())) floating = floating || moving->isDynamic();
     mSettings.solver.kernels = floating ? KernelPair::CubicSpline : KernelPair::WendlandC2;
   }
+  if (mStarted) return;
   const SolverSettings& solver = mSettings.solver;
   // Expected speed: free fall over the height of the scene, or the fastest particle.
   Real expected = solver.expectedSpeed;

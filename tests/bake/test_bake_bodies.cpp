@@ -100,6 +100,19 @@ TEST(BakeBodies, SigkillMidFrameThenResumeIsBitIdentical) {
   EXPECT_NE(readTextFile(ref.solids(1)), readTextFile(ref.solids(12)));
 }
 
+// WCSPH picks its kernels when it starts (solver.kernels "auto": the cubic spline with a
+// floating body); a bake resumed from a checkpoint must pick the same ones.
+TEST(BakeBodies, WcsphFloatingCrateResumesBitIdentical) {
+  ASSERT_TRUE(fs::exists(kCascade));
+  const fs::path scene = writeScene("crate_wcsph");
+  std::string text = readTextFile(scene);
+  const std::string dfsph = R"("type": "dfsph")";
+  ASSERT_NE(text.find(dfsph), std::string::npos);
+  text.replace(text.find(dfsph), dfsph.size(), R"("type": "wcsph")");
+  std::ofstream(scene) << text;
+  expectResumeIsBitIdentical(scene, "crate_wcsph");
+}
+
 TEST(BakeBodies, DeformingSequenceResumesBitIdentical) {
   // scenes/flex_paddle.json's bending paddle (an OBJ sequence) in the pool.
   const std::string paddle = R"({"name": "paddle", "mesh": ")" + kAssets +
