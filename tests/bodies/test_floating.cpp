@@ -57,6 +57,20 @@ std::string caseName(const ::testing::TestParamInfo<FloatCase>& info) {
          (mm > 0 ? "_" + std::to_string(int(mm)) + "mm_deep" : mm < 0 ? "_" + std::to_string(int(-mm)) + "mm_high" : "");
 }
 
+/// Water at rest `depth` deep in a square tank `side` wide, on the cubic lattice of
+/// `spacing` (no hydrostatic compression), without the lattice points inside a solid
+/// (`solid(p)` true).
+template <typename Solid>
+void addLatticeWater(Simulation& sim, double side, double depth, double spacing, const Solid& solid) {
+  const long n = std::lround(side / spacing), layers = std::lround(depth / spacing);
+  for (long k = 0; k < layers; ++k)
+    for (long j = 0; j < n; ++j)
+      for (long i = 0; i < n; ++i) {
+        const Vec3r p = Real(spacing) * Vec3r(Real(i + 0.5), Real(j + 0.5), Real(k + 0.5));
+        if (!solid(p)) sim.addParticle(p, Vec3r::Zero());
+      }
+}
+
 /// Resting water `depth` deep in a square tank `side` wide, and a box `edge` x `edge`
 /// x `height` (centred) with its lower face at the water surface.
 struct FloatScene {
@@ -95,14 +109,9 @@ FloatScene makeFloatScene(const std::string& solver, double density, double spac
   scene.lo = bottom - half;
   scene.hi = bottom + half + Vec3r(0, 0, Real(height));
   if (startDraft > 0) {
-    const long n = std::lround(side / spacing), layers = std::lround(depth / spacing);
-    for (long k = 0; k < layers; ++k)
-      for (long j = 0; j < n; ++j)
-        for (long i = 0; i < n; ++i) {
-          const Vec3r p = Real(spacing) * Vec3r(Real(i + 0.5), Real(j + 0.5), Real(k + 0.5));
-          if (!(p.array() > scene.lo.array()).all() || !(p.array() < scene.hi.array()).all())
-            scene.sim->addParticle(p, Vec3r::Zero());
-        }
+    addLatticeWater(*scene.sim, side, depth, spacing, [&](const Vec3r& p) {
+      return (p.array() > scene.lo.array()).all() && (p.array() < scene.hi.array()).all();
+    });
   } else {
     scene.sim->addFluidBox(Vec3r(0, 0, 0), Vec3r(Real(side), Real(side), Real(depth)));
   }
@@ -165,7 +174,6 @@ double volumeLevel(const Simulation& sim, const MovingBoundary* body, const Vec3
   }
   return level;
 }
-
 
 } // namespace
 
@@ -254,8 +262,9 @@ INSTANTIATE_TEST_SUITE_P(Wcsph, Archimedes,
                          caseName);
 // The draft is an equilibrium the body returns to, not one it sticks near: released 1 cm
 // (a spacing) deeper or higher than its draft in water at rest, it is back within 3 %
-// over the last of 3 s (WCSPH from 1 cm deep: +3.3 % at 2 s, +1.8 % at 3 s). With WCSPH's Wendland C2 kernels (the still-water default) the resting
-// lattice holds it by a static shear: 7-8 % off, on the side it started.
+// over the last of 3 s (WCSPH from 1 cm deep: +3.3 % at 2 s, +1.8 % at 3 s). With
+// WCSPH's Wendland C2 kernels (the still-water default) the resting lattice holds it by
+// a static shear: 7-8 % off, on the side it started.
 INSTANTIATE_TEST_SUITE_P(ReturnsToItsDraft, Archimedes,
                          ::testing::Values(FloatCase{"wcsph", 800, 1, true, false, 0.01},
                                            FloatCase{"wcsph", 800, 1, true, false, -0.01},
@@ -296,13 +305,7 @@ TEST_P(HeldCube, CarriesTheWeightOfTheWaterItDisplaces) {
   sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(Real(side), Real(side), Real(2.5 * depth))));
   const Vec3r lo(Real(side / 2 - edge / 2), Real(side / 2 - edge / 2), Real(depth - draft));
   const std::size_t cube = sim.addBoundary(boxObstacle(lo, lo + Vec3r(Real(edge), Real(edge), Real(edge)), "cube"));
-  const long n = std::lround(side / spacing), layers = std::lround(depth / spacing);
-  for (long k = 0; k < layers; ++k)
-    for (long j = 0; j < n; ++j)
-      for (long i = 0; i < n; ++i) {
-        const Vec3r p = Real(spacing) * Vec3r(Real(i + 0.5), Real(j + 0.5), Real(k + 0.5));
-        if (!sim.boundary(cube).isInside(p)) sim.addParticle(p, Vec3r::Zero());
-      }
+  addLatticeWater(sim, side, depth, spacing, [&](const Vec3r& p) { return sim.boundary(cube).isInside(p); });
   // Time averages over the last second: the impulses of every step (the instantaneous
   // force of a weakly compressible fluid rings with its sound waves), and the surface.
   const double duration = envOr("CASCADE_FLOAT_TIME", 2.5), window = 1.0;
@@ -358,13 +361,7 @@ TEST(HeldByAKeyframe, GivesTheStaticObstaclesFluid) {
                                                         KinematicMotion::fromKeyframes({scene::Keyframe()}, Vec3d::Zero())));
     else
       sim->addBoundary(std::move(mesh));
-    const long n = std::lround(side / spacing), layers = std::lround(depth / spacing);
-    for (long k = 0; k < layers; ++k)
-      for (long j = 0; j < n; ++j)
-        for (long i = 0; i < n; ++i) {
-          const Vec3r p = Real(spacing) * Vec3r(Real(i + 0.5), Real(j + 0.5), Real(k + 0.5));
-          if (!sim->boundary(1).isInside(p)) sim->addParticle(p, Vec3r::Zero());
-        }
+    addLatticeWater(*sim, side, depth, spacing, [&](const Vec3r& p) { return sim->boundary(1).isInside(p); });
     for (int step = 0; step < 400; ++step) sim->step();
     return sim;
   };
