@@ -1,0 +1,247 @@
+// Standing wave (validation): the first sloshing mode of a closed flume, started flat
+// with the linear mode's velocity field, oscillates at the linear dispersion relation's
+// period omega^2 = g k tanh(k d) (k = pi / L) and keeps its amplitude: the solver's
+// numerical damping of gravity waves, measured in a second, not over a flume of
+// wavelengths (docs/solvers.md, "Gravity waves").
+//
+// The mode (Dean & Dalrymple, "Water wave mechanics", standing wave): surface
+// eta = a cos(k x) sin(omega t), velocity
+//   u = -a omega sin(k x) cosh(k z) / sinh(k d) cos(omega t),
+//   w =  a omega cos(k x) sinh(k z) / sinh(k d) cos(omega t)   (z above the floor).
+// Its amplitude A(t) is the projection of the particle velocities on the mode's
+// velocity field (A(0) = a). The decay per period is the slope of ln |A| over the
+// extremes of A; the period is twice the mean spacing of its zero crossings.
+// A progressive wave of the same kd loses per wavelength what the mode loses in
+// lambda / c_g = T / (c_g / c) (energy travels at the group speed c_g): printed.
+//
+// What the lost amplitude becomes (CASCADE_TEST_VERBOSE prints it): kinetic energy
+// outside the mode, nine tenths of it at the particle scale (not in 3 cm cell means),
+// first in the top two layers, then everywhere (docs/solvers.md, "Gravity waves").
+//
+// For studies: CASCADE_WAVE_SPACING, _AMPLITUDE, _PERIODS, _WIDTH (slab, in spacings),
+// _FROM_SURFACE (start at rest with the surface raised), _ALPHA (artificial viscosity),
+// _VISCOSITY (Pa s), _SUPPORT (support radius over spacing), _TOLERANCE,
+// _DIVERGENCE_TOLERANCE, _ITERATIONS, _MAX_DT.
+#include <gtest/gtest.h>
+
+#include "libsph/boundary/BoxBoundary.h"
+#include "libsph/solver/Simulation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <string>
+#include <vector>
+
+namespace cascade::test {
+
+namespace {
+
+double envOr(const char* name, double fallback) {
+  const char* v = std::getenv(name);
+  return v ? std::atof(v) : fallback;
+}
+
+/// A damped oscillation from its samples: period from the zero crossings, decay from
+/// ln |extreme| (one per half period) against time.
+class Oscillation {
+public:
+  void add(double t, double value) {
+    if (mCount > 0 && (value > 0) != (mPrevious > 0)) {
+      mCrossings.push_back(t - (t - mPreviousTime) * value / (value - mPrevious));  // linear interpolation
+      mPeakTime.push_back(mExtremeTime);
+      mPeakValue.push_back(std::abs(mExtreme));
+      mExtreme = 0;
+    }
+    if (std::abs(value) > std::abs(mExtreme)) mExtreme = value, mExtremeTime = t;
+    mPrevious = value, mPreviousTime = t, ++mCount;
+  }
+  int extremes() const { return int(mPeakValue.size()); }
+  /// Twice the mean spacing of the zero crossings (0 if fewer than two).
+  double period() const {
+    return mCrossings.size() < 2 ? 0 : 2 * (mCrossings.back() - mCrossings.front()) / double(mCrossings.size() - 1);
+  }
+  /// The amplitude ratio over `time`: exp(slope time) of the least-squares line through ln |extreme|.
+  double keptOver(double time) const {
+    const double n = double(mPeakValue.size());
+    if (n < 2) return 0;
+    double st = 0, sl = 0, stt = 0, stl = 0;
+    for (std::size_t i = 0; i < mPeakValue.size(); ++i) {
+      const double l = std::log(mPeakValue[i]);
+      st += mPeakTime[i], sl += l, stt += mPeakTime[i] * mPeakTime[i], stl += mPeakTime[i] * l;
+    }
+    return std::exp((n * stl - st * sl) / (n * stt - st * st) * time);
+  }
+
+private:
+  std::vector<double> mCrossings, mPeakTime, mPeakValue;
+  double mPrevious = 0, mPreviousTime = 0, mExtreme = 0, mExtremeTime = 0;
+  long mCount = 0;
+};
+
+struct Sloshing {
+  double period = 0, linearPeriod = 0;  ///< s
+  double keptPerPeriod = 0;             ///< the mode's amplitude ratio over one period
+  double keptPerWavelength = 0;         ///< the same damping for a progressive wave
+  double meanVelocityKept = 0;          ///< kept per period from the mean horizontal velocity
+  int extremes = 0;
+};
+
+Sloshing slosh(const std::string& solver, double artificialViscosity) {
+  const double spacing = envOr("CASCADE_WAVE_SPACING", 0.01);
+  const double length = 0.3, depth = 0.1, width = envOr("CASCADE_WAVE_WIDTH", 2) * spacing;
+  const double a = envOr("CASCADE_WAVE_AMPLITUDE", 0.01);
+  const double g = kStandardGravity, k = M_PI / length, kd = k * depth;
+  const double omega = std::sqrt(g * k * std::tanh(kd));
+  const bool fromSurface = std::getenv("CASCADE_WAVE_FROM_SURFACE") != nullptr;
+  Sloshing result;
+  result.linearPeriod = 2 * M_PI / omega;
+
+  SimulationSettings settings;
+  settings.fluid.spacing = Real(spacing);
+  settings.solver.type = solver;
+  settings.solver.artificialViscosity = Real(artificialViscosity);
+  if (const char* v = std::getenv("CASCADE_WAVE_ALPHA")) settings.solver.artificialViscosity = Real(std::atof(v));
+  if (const char* v = std::getenv("CASCADE_WAVE_VISCOSITY")) settings.fluid.viscosity = Real(std::atof(v));
+  if (const char* v = std::getenv("CASCADE_WAVE_DIVERGENCE_TOLERANCE")) settings.solver.divergenceTolerance = Real(std::atof(v));
+  if (const char* v = std::getenv("CASCADE_WAVE_TOLERANCE")) settings.solver.densityTolerance = Real(std::atof(v));
+  if (const char* v = std::getenv("CASCADE_WAVE_ITERATIONS")) settings.solver.maxIterations = std::atoi(v);
+  if (const char* v = std::getenv("CASCADE_WAVE_MAX_DT")) settings.solver.maxTimeStep = Real(std::atof(v));
+  if (const char* v = std::getenv("CASCADE_WAVE_SUPPORT")) settings.solver.supportRadiusFactor = Real(std::atof(v));
+  Simulation sim(settings);
+  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(Real(length), Real(width), Real(3 * depth))));
+  // The mode's velocity per unit amplitude at a point.
+  auto mode = [&](const Vec3r& x) {
+    const double s = std::sinh(kd);
+    return Vec3d(-omega * std::sin(k * x.x()) * std::cosh(k * x.z()) / s, 0,
+                 omega * std::cos(k * x.x()) * std::sinh(k * x.z()) / s);
+  };
+  if (fromSurface) {
+    // At rest with the surface raised by a cos(k x): the lattice points below it (the
+    // mode a quarter period earlier, as a staircase).
+    const long nx = std::lround(length / spacing), ny = std::lround(width / spacing);
+    for (long i = 0; i < nx; ++i)
+      for (long j = 0; j < ny; ++j)
+        for (long l = 0;; ++l) {
+          const Vec3r x = Real(spacing) * Vec3r(Real(i + 0.5), Real(j + 0.5), Real(l + 0.5));
+          if (x.z() > depth + a * std::cos(k * x.x())) break;
+          sim.addParticle(x, Vec3r::Zero());
+        }
+  } else {
+    sim.addFluidBox(Vec3r(0, 0, 0), Vec3r(Real(length), Real(width), Real(depth)));
+    Particles& p = sim.particles();
+    for (std::size_t i = 0; i < p.size(); ++i) p.velocity[i] = (a * mode(p.position[i])).cast<Real>();
+  }
+  // The mode's amplitude: the velocities projected on its velocity field.
+  auto amplitude = [&]() {
+    const Particles& p = sim.particles();
+    double along = 0, norm = 0;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      const Vec3d m = mode(p.position[i]);
+      along += p.velocity[i].cast<double>().dot(m);
+      norm += m.squaredNorm();
+    }
+    return along / norm;
+  };
+  auto meanVelocity = [&]() {
+    const Particles& p = sim.particles();
+    double sum = 0;
+    for (std::size_t i = 0; i < p.size(); ++i) sum += p.velocity[i].x();
+    return sum / double(p.size());
+  };
+
+  const int periods = int(envOr("CASCADE_WAVE_PERIODS", 3));
+  const double end = periods * result.linearPeriod, sample = result.linearPeriod / 200;
+  Oscillation mode1, mean;
+  for (int s = 1; s * sample <= end + 1e-12; ++s) {
+    const double t = s * sample;
+    sim.advanceTo(t);
+    const double A = amplitude(), u = meanVelocity();
+    if (std::getenv("CASCADE_TEST_VERBOSE")) {
+      const Particles& p = sim.particles();
+      double kinetic = 0, modeKinetic = 0, top = 0, wall = 0, middle = 0;
+      for (std::size_t i = 0; i < p.size(); ++i) {
+        kinetic += 0.5 * p.velocity[i].cast<double>().squaredNorm();
+        modeKinetic += 0.5 * A * A * mode(p.position[i]).squaredNorm();
+        const double r = 0.5 * (p.velocity[i].cast<double>() - A * mode(p.position[i])).squaredNorm();
+        const Vec3r x = p.position[i];
+        if (x.z() > depth - 2 * spacing) top += r;
+        else if (x.z() < 2 * spacing || x.x() < 2 * spacing || x.x() > length - 2 * spacing) wall += r;
+        else middle += r;
+      }
+      // the residual's large-scale part: its means over cells of 3 cm (x, z)
+      const double cell = 0.03;
+      const int cx = int(std::ceil(length / cell)), cz = int(std::ceil(2 * depth / cell));
+      std::vector<Vec3d> sum(std::size_t(cx * cz), Vec3d::Zero());
+      std::vector<int> count(std::size_t(cx * cz), 0);
+      for (std::size_t i = 0; i < p.size(); ++i) {
+        const Vec3r x = p.position[i];
+        const int ix = std::clamp(int(x.x() / cell), 0, cx - 1), iz = std::clamp(int(x.z() / cell), 0, cz - 1);
+        sum[std::size_t(ix * cz + iz)] += p.velocity[i].cast<double>() - A * mode(x);
+        ++count[std::size_t(ix * cz + iz)];
+      }
+      double large = 0;
+      for (std::size_t c = 0; c < sum.size(); ++c)
+        if (count[c] > 0) large += 0.5 * sum[c].squaredNorm() / count[c];
+      std::cout << "  t " << t << " A " << A << " KE " << kinetic << " mode KE " << modeKinetic << " rest: top "
+                << top << " walls " << wall << " middle " << middle << " large-scale " << large << "\n";
+    }
+    mode1.add(t, A);
+    mean.add(t, u);
+  }
+  result.extremes = mode1.extremes();
+  result.period = mode1.period();
+  result.keptPerPeriod = mode1.keptOver(result.linearPeriod);
+  result.meanVelocityKept = mean.keptOver(result.linearPeriod);
+  const double groupOverPhase = 0.5 * (1 + 2 * kd / std::sinh(2 * kd));
+  result.keptPerWavelength = std::pow(result.keptPerPeriod, 1 / groupOverPhase);
+  std::cout << "standing wave (" << solver << ", spacing " << spacing << ", a " << a << ", kd " << kd
+            << (fromSurface ? ", from the raised surface" : ", from the mode's velocity") << ", "
+            << sim.particles().size() << " particles, " << sim.stepCount() << " steps): period " << result.period
+            << " s (linear " << result.linearPeriod << " s, " << 100 * (result.period / result.linearPeriod - 1)
+            << " %), amplitude kept per period " << result.keptPerPeriod << " (mean velocity: "
+            << result.meanVelocityKept << "; a progressive wave: per wavelength " << result.keptPerWavelength
+            << ") over " << result.extremes << " extremes\n";
+  return result;
+}
+
+} // namespace
+
+/// A solver and the artificial viscosity its shipped scenes use (DFSPH's flume: none).
+struct WaveCase {
+  std::string solver;
+  double artificialViscosity;
+};
+
+class StandingWave : public ::testing::TestWithParam<WaveCase> {};
+
+std::string waveCaseName(const ::testing::TestParamInfo<WaveCase>& info) { return info.param.solver; }
+
+#ifndef CASCADE_KNOWN_FAILURES
+// DFSPH at 1 cm (10 layers deep, 6 per wave height), measured: period -2.4 %, amplitude
+// kept per period 0.81 (0.89 at 5 mm, 0.91 at 2.5 mm). The damping bound guards today's
+// value; the target (below) is the flume's.
+TEST_P(StandingWave, OscillatesAtTheLinearPeriod) {
+  const Sloshing s = slosh(GetParam().solver, GetParam().artificialViscosity);
+  ASSERT_GE(s.extremes, 4);
+  EXPECT_NEAR(s.period / s.linearPeriod, 1.0, 0.05);
+  EXPECT_GT(s.keptPerPeriod, 0.75);
+}
+INSTANTIATE_TEST_SUITE_P(Dfsph, StandingWave, ::testing::Values(WaveCase{"dfsph", 0.0}), waveCaseName);
+#else
+// The target: a wave that keeps 97 % of its amplitude per period keeps 96.5 % per
+// wavelength travelling (kd = 1), which the flume needs to stay within 10 % of Biesel
+// three wavelengths out. DFSPH keeps 0.81 per period at 1 cm; WCSPH (Wendland C2 at two
+// spacings, artificial viscosity 0.1) 0.46, with the period 15 % short.
+TEST_P(StandingWave, KeepsItsAmplitude) {
+  const Sloshing s = slosh(GetParam().solver, GetParam().artificialViscosity);
+  ASSERT_GE(s.extremes, 4);
+  EXPECT_NEAR(s.period / s.linearPeriod, 1.0, 0.05);
+  EXPECT_GT(s.keptPerPeriod, 0.97);
+}
+INSTANTIATE_TEST_SUITE_P(BothSolvers, StandingWave,
+                         ::testing::Values(WaveCase{"dfsph", 0.0}, WaveCase{"wcsph", 0.1}), waveCaseName);
+#endif
+
+} // namespace cascade::test
