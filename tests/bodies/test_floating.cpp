@@ -14,6 +14,7 @@
 // _SUPPORT (support radius over spacing), _STIFFNESS and _WCSPH_DENSITY;
 // CASCADE_TEST_VERBOSE prints the time series.
 #include "BodyTestScenes.h"
+#include "TestEnvironment.h"
 
 #include "libsph/probes/Probes.h"
 
@@ -28,11 +29,6 @@
 namespace cascade::test {
 
 namespace {
-
-double envOr(const char* name, double fallback) {
-  const char* v = std::getenv(name);
-  return v ? std::atof(v) : fallback;
-}
 
 struct FloatCase {
   std::string solver;

@@ -22,10 +22,12 @@
 // _FROM_SURFACE (start at rest with the surface raised), _ALPHA (artificial viscosity),
 // _VISCOSITY (Pa s), _SUPPORT (support radius over spacing), _TOLERANCE,
 // _DIVERGENCE_TOLERANCE, _ITERATIONS, _MAX_DT.
-#include <gtest/gtest.h>
+#include "TestEnvironment.h"
 
 #include "libsph/boundary/BoxBoundary.h"
 #include "libsph/solver/Simulation.h"
+
+#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
@@ -37,11 +39,6 @@
 namespace cascade::test {
 
 namespace {
-
-double envOr(const char* name, double fallback) {
-  const char* v = std::getenv(name);
-  return v ? std::atof(v) : fallback;
-}
 
 /// A damped oscillation from its samples: period from the zero crossings, decay from
 /// ln |extreme| (one per half period) against time.
