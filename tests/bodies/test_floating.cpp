@@ -249,9 +249,9 @@ TEST_P(Archimedes, ABodyFloatsAtItsDraft) {
 // Measured at 1 cm (10 spacings per edge), 3 s (docs/moving-solids.md):
 // - DFSPH: cube 800 -1.7 % (drift 0.4 mm, tilt 1.3 degrees; upright within the bounds,
 //   narrowly: at 800 its metacentric height is 0.004 a, a restoring torque of 0.003 N m
-//   per radian that a spurious torque of 1e-4 N m tilts by 2 degrees), cube 500 -1.8 %
-//   (tipped over, 32 degrees), raft 500 drift 0.9 mm, tilt 0.17 degrees (its draft, 3
-//   spacings, is 1.2 mm short: -3.9 %);
+//   per radian that a spurious torque of 1e-4 N m tilts by 2 degrees), cube 500 -2.5 %
+//   (tipped over, 44 degrees), raft 500 drift 0.95 mm, tilt 0.6 degrees (its draft, 3
+//   spacings, is 1.1 mm short: -3.6 %);
 // - WCSPH (cubic spline kernels, chosen automatically when a body floats): cube 800
 //   -1.7 %, cube 500 -1.9 % (the raft: below, known failure).
 #ifndef CASCADE_FLOATING_LONG
