@@ -505,6 +505,26 @@ bool isOrthogonal(const Eigen::Matrix<Real, 3, 3>& linear) {
   return ((linear.transpose() * linear) - Eigen::Matrix<Real, 3, 3>::Identity()).cwiseAbs().maxCoeff() <= Real(1e-4);
 }
 
+/// How the mirror passes sum the type II images (SEED section 2.2) that `map` makes of
+/// a layer particle's neighbours. An orthogonal map over a whole half-space is an
+/// isometry: |x_i - (M x_j + o)| = |y - x_j| with y = M^T (x_i - o), so the sum over
+/// the images is the fluid sum around i's pre-image y (true). Any other map (a mesh
+/// face's, imaging only the fluid in front of it) is summed image by image
+/// (forEachImageInFront).
+bool sumsAroundPreImage(const MirrorMap& map) { return isOrthogonal(map.linear) && !map.frontOnly; }
+
+/// i's pre-image y = M^T (x_i - o) (sumsAroundPreImage).
+Vec3r preImage(const MirrorMap& map, const Vec3r& xi) { return map.linear.transpose() * (xi - map.offset); }
+
+/// Calls visit(j) for each of i's neighbours j that has an image under `map` (not
+/// behind a front-only map: its image would lie in the fluid).
+template <typename Visit>
+void forEachImageInFront(const MirrorMap& map, const Vec3r& xi, const std::vector<Vec3r>& position,
+                         const std::uint32_t* begin, const std::uint32_t* end, Visit&& visit) {
+  for (const std::uint32_t* j = begin; j != end; ++j)
+    if (!map.behind(xi, position[*j])) visit(*j);
+}
+
 } // namespace
 
 namespace wcsph {
@@ -568,14 +588,12 @@ void addMirrorDensity(StepContext& c, const Workspace& workspace) {
         const MirrorMap& map = boundary.mirrors()[m];
         // The mirror of i itself, then of each neighbour.
         add(squaredDistance(xi, map.apply(xi)));
-        if (isOrthogonal(map.linear) && !map.frontOnly) {
-          // |x_i - (M x_j + o)| = |M^T (x_i - o) - x_j|: the fluid sum around i's pre-image.
-          const Vec3r preImage = map.linear.transpose() * (xi - map.offset);
-          sum += kernelSum(kernel, records, preImage, nl.begin(i), nl.count(i));
-        } else {
-          for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j)
-            if (!map.behind(xi, particles.position[*j])) add(squaredDistance(xi, map.apply(particles.position[*j])));
-        }
+        if (sumsAroundPreImage(map))
+          sum += kernelSum(kernel, records, preImage(map, xi), nl.begin(i), nl.count(i));
+        else
+          forEachImageInFront(map, xi, particles.position, nl.begin(i), nl.end(i), [&](std::uint32_t j) {
+            add(squaredDistance(xi, map.apply(particles.position[j])));
+          });
       }
       particles.density[i] += scale * kernel.valueCoeff * sum;
     }
@@ -658,21 +676,20 @@ void computeDensityRate(StepContext& c, Workspace& workspace) {
       for (std::uint32_t m = boundary.mirrorOffsets()[i]; m < boundary.mirrorOffsets()[i + 1]; ++m) {
         const MirrorMap& map = boundary.mirrors()[m];
         add(xi, vi, map.apply(xi), map.imageVelocity(vi, false));
-        if (isOrthogonal(map.linear) && !map.frontOnly) {
-          // x_i - (M x_j + o) = M (y - x_j), v_i - (w + M (v_j - w)) = M (u - v_j): the fluid
-          // sum around y = M^T (x_i - o), u = M^T (v_i - w) + w.
-          const Vec3r y = map.linear.transpose() * (xi - map.offset);
+        if (sumsAroundPreImage(map)) {
+          // Around i's pre-image y, with v_i - (w + M (v_j - w)) = M (u - v_j) for the
+          // velocities: the fluid sum around (y, u), u = M^T (v_i - w) + w.
+          const Vec3r y = preImage(map, xi);
           const Vec3r u = map.linear.transpose() * (vi - map.wallVelocity) + map.wallVelocity;
           for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j) {
             const PairInput& q = records[*j];
             add(y, u, Vec3r(q.x, q.y, q.z), Vec3r(q.vx, q.vy, q.vz));
           }
         } else {
-          for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j) {
-            const PairInput& q = records[*j];
-            const Vec3r xj(q.x, q.y, q.z);
-            if (!map.behind(xi, xj)) add(xi, vi, map.apply(xj), map.imageVelocity(Vec3r(q.vx, q.vy, q.vz), false));
-          }
+          forEachImageInFront(map, xi, c.particles.position, nl.begin(i), nl.end(i), [&](std::uint32_t j) {
+            const PairInput& q = records[j];
+            add(xi, vi, map.apply(Vec3r(q.x, q.y, q.z)), map.imageVelocity(Vec3r(q.vx, q.vy, q.vz), false));
+          });
         }
       }
       rate[i] += mass * sum;
@@ -752,12 +769,12 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
       for (std::uint32_t m = boundary.mirrorOffsets()[i]; m < boundary.mirrorOffsets()[i + 1]; ++m) {
         const MirrorMap& map = boundary.mirrors()[m];
         Vec3r a = Vec3r::Zero();
-        if (!noSlip && isOrthogonal(map.linear) && !map.frontOnly) {
+        if (!noSlip && sumsAroundPreImage(map)) {
           // Free slip: the mirror of j at M x_j + o with velocity w + M (v_j - w) (w
           // the wall's velocity). With y = M^T (x_i - o) and u = M^T (v_i - w) + w,
           // x_i - M x_j - o = M (y - x_j) and v_i - w - M (v_j - w) = M (u - v_j):
           // the fluid sums around (y, u), turned by M.
-          const Vec3r y = map.linear.transpose() * (xi - map.offset);
+          const Vec3r y = preImage(map, xi);
           const Vec3r u = map.linear.transpose() * (vi - map.wallVelocity) + map.wallVelocity;
           const Real invRhoi = Real(1) / rhoi;
           const ForceQuery q{y.x(), y.y(), y.z(), u.x(), u.y(), u.z(), pi, rhoi, invRhoi};
@@ -772,15 +789,14 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
           const ForceQuery q{xi.x(), xi.y(), xi.z(), vi.x(), vi.y(), vi.z(), pi, rhoi, invRhoi};
           ForceSums sums;
           auto visit = [&](std::uint32_t j) {
-            if (map.behind(xi, particles.position[j])) return;  // its image would lie in the fluid
             const Vec3r x = map.apply(particles.position[j]);
             const Vec3r v = map.imageVelocity(particles.velocity[j], noSlip);
             const PairInput image{x.x(), x.y(), x.z(), particles.pressure[j],
                                   v.x(), v.y(), v.z(), particles.density[j]};
             addPairTerms(k, q, image, sums);
           };
-          visit(i);
-          for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j) visit(*j);
+          if (!map.behind(xi, xi)) visit(i);
+          forEachImageInFront(map, xi, particles.position, nl.begin(i), nl.end(i), visit);
           a = sums.pressure - (viscosityCoeff * invRhoi) * sums.viscous;
         }
         total += a;
