@@ -795,7 +795,7 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
                                   v.x(), v.y(), v.z(), particles.density[j]};
             addPairTerms(k, q, image, sums);
           };
-          if (!map.behind(xi, xi)) visit(i);
+          visit(i);  // i's own image (never behind its map)
           forEachImageInFront(map, xi, particles.position, nl.begin(i), nl.end(i), visit);
           a = sums.pressure - (viscosityCoeff * invRhoi) * sums.viscous;
         }
