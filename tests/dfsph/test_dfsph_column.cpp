@@ -61,8 +61,12 @@ ColumnResult settleColumn(int layers, int across, double endTime) {
   int windowSamples = 0;
   while (sim.time() < endTime) {
     sim.step();
-    if (verbose && sim.time() >= windowEnd - 0.1) {
-      windowSum += pressureAt(sim.particles(), floorPoint, sim.supportRadius(), settings.solver.gravity) / expected;
+    const bool inWindow = verbose && sim.time() >= windowEnd - 0.1, last = sim.time() >= endTime - 0.1;
+    if (!inWindow && !last) continue;
+    const Particles& p = sim.particles();
+    const double floorPressure = pressureAt(p, floorPoint, sim.supportRadius(), settings.solver.gravity) / expected;
+    if (inWindow) {
+      windowSum += floorPressure;
       ++windowSamples;
       if (sim.time() >= windowEnd) {
         std::cout << "[dfsph column] " << layers << " layers, floor pressure / rho g H over " << windowEnd - 0.1 << "-"
@@ -72,9 +76,7 @@ ColumnResult settleColumn(int layers, int across, double endTime) {
         windowEnd += 0.1;
       }
     }
-    if (sim.time() < endTime - 0.1) continue;
-    const Particles& p = sim.particles();
-    const double floorPressure = pressureAt(p, floorPoint, sim.supportRadius(), settings.solver.gravity) / expected;
+    if (!last) continue;
     sum += floorPressure;
     sum2 += floorPressure * floorPressure;
     double compression = 0, v2 = 0;
