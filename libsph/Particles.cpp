@@ -4,13 +4,6 @@ namespace cascade {
 
 namespace {
 template <typename T>
-void permuteArray(std::vector<T>& values, const std::vector<std::size_t>& order) {
-  std::vector<T> result(order.size());
-  for (std::size_t k = 0; k < order.size(); ++k) result[k] = values[order[k]];
-  values.swap(result);
-}
-
-template <typename T>
 void compactArray(std::vector<T>& values, const std::vector<char>& remove) {
   std::size_t out = 0;
   for (std::size_t i = 0; i < values.size(); ++i)

@@ -15,6 +15,15 @@
 
 namespace cascade {
 
+/// Reorders `values` so that values[k] becomes the old values[order[k]]
+/// (order: a permutation of the indices, e.g. a search's zOrder()).
+template <typename T>
+void permuteArray(std::vector<T>& values, const std::vector<std::size_t>& order) {
+  std::vector<T> result(order.size());
+  for (std::size_t k = 0; k < order.size(); ++k) result[k] = values[order[k]];
+  values.swap(result);
+}
+
 struct Particles {
   std::vector<Vec3r> position;      ///< m
   std::vector<Vec3r> velocity;      ///< m/s

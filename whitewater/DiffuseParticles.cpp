@@ -1,6 +1,8 @@
 // Diffuse particle arrays.
 #include "whitewater/DiffuseParticles.h"
 
+#include "libsph/Particles.h"
+
 namespace cascade::whitewater {
 
 const char* diffuseTypeName(DiffuseType type) {
@@ -31,6 +33,13 @@ void DiffuseParticles::append(const DiffuseParticles& other) {
   velocity.insert(velocity.end(), other.velocity.begin(), other.velocity.end());
   id.insert(id.end(), other.id.begin(), other.id.end());
   age.insert(age.end(), other.age.begin(), other.age.end());
+}
+
+void DiffuseParticles::permute(const std::vector<std::size_t>& order) {
+  permuteArray(position, order);
+  permuteArray(velocity, order);
+  permuteArray(id, order);
+  permuteArray(age, order);
 }
 
 void DiffuseParticles::keepWhere(const std::vector<std::uint8_t>& keep) {

@@ -41,6 +41,8 @@ struct DiffuseParticles {
   void reserve(std::size_t count);
   void push_back(const Vec3r& x, const Vec3r& v, std::uint32_t identifier, float ageSeconds);
   void append(const DiffuseParticles& other);
+  /// Particle k becomes the old particle order[k] (a permutation).
+  void permute(const std::vector<std::size_t>& order);
   /// Keeps the particles with keep[i] != 0, in order.
   void keepWhere(const std::vector<std::uint8_t>& keep);
   /// Bytes per particle held by the arrays.

@@ -23,43 +23,52 @@ inline float weight(float r, float h) { return r < h ? 1.0f - r / h : 0.0f; }
 } // namespace
 
 void computePotentials(const std::vector<Vec3r>& positions, const std::vector<Vec3r>& velocities,
-                       const NeighborLists& neighbors, Real h, FluidPotentials& out) {
+                       const NeighborLists& neighbors, Real h, FluidPotentials& out, float energyFloor) {
   const std::size_t n = positions.size();
   out.trappedAir.resize(n);
   out.waveCrest.resize(n);
   out.kineticEnergy.resize(n);
   out.normal.resize(n);
-  const float support = float(h);
+  const float support = float(h), inverseSupport = 1.0f / support;
   std::vector<Vec3r>& normal = out.normal;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       const std::uint32_t count = neighbors.count(i);
       const Vec3r& xi = positions[i];
       const Vec3r& vi = velocities[i];
+      const bool source = count >= kSourceNeighbors;
+      out.kineticEnergy[i] = source ? 0.5f * float(vi.squaredNorm()) : 0.0f;
+      out.waveCrest[i] = 0;
+      const bool births = source && out.kineticEnergy[i] > energyFloor;
+      if (!births) out.trappedAir[i] = 0;
+      if (!births && count > kSurfaceNeighbors) {
+        normal[i] = Vec3r::Zero();  // inside, and too slow to give birth
+        continue;
+      }
       Vec3r sum = Vec3r::Zero();
       float trapped = 0;
       for (const std::uint32_t* j = neighbors.begin(i); j != neighbors.end(i); ++j) {
         const Vec3r xij = xi - positions[*j];
         const float r = float(xij.norm());
         if (r <= 0) continue;
-        const float w = weight(r, support);
-        const Vec3r xHat = xij / Real(r);
+        const float w = std::max(1.0f - r * inverseSupport, 0.0f);
+        const Vec3r xHat = xij * Real(1.0f / r);
         sum += Real(w) * xHat;
+        if (!births) continue;
         const Vec3r vij = vi - velocities[*j];
         const float speed = float(vij.norm());
-        if (speed > 1e-6f) trapped += speed * (1.0f - float(vij.dot(xHat)) / speed) * w;  // eq. 2
+        // eq. 2: |v_ij| (1 - v^_ij . x^_ij) W_ij, as (|v_ij| - v_ij . x^_ij) W_ij.
+        if (speed > 1e-6f) trapped += (speed - float(vij.dot(xHat))) * w;
       }
       normal[i] = count <= kSurfaceNeighbors && sum.squaredNorm() > 0 ? Vec3r(sum.normalized()) : Vec3r::Zero();
-      out.waveCrest[i] = 0;
-      const bool source = count >= kSourceNeighbors;
-      out.trappedAir[i] = source ? trapped : 0.0f;
-      out.kineticEnergy[i] = source ? 0.5f * float(vi.squaredNorm()) : 0.0f;
+      if (births) out.trappedAir[i] = trapped;
     }
   });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       const Vec3r& ni = normal[i];
-      if (neighbors.count(i) < kSourceNeighbors || ni.squaredNorm() == 0) continue;
+      if (neighbors.count(i) < kSourceNeighbors || ni.squaredNorm() == 0 || !(out.kineticEnergy[i] > energyFloor))
+        continue;
       const Vec3r& vi = velocities[i];
       const float speed = float(vi.norm());
       if (speed <= 0 || float(vi.dot(ni)) < kCrestVelocityAlignment * speed) continue;  // eq. 6

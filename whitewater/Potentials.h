@@ -46,9 +46,13 @@ struct FluidPotentials {
 
 /// The potentials of every fluid particle; `neighbors` are its neighbours
 /// within h (self excluded), e.g. from UniformGridSearch::findNeighbors.
-/// Fills `out`, reusing its memory.
+/// Fills `out`, reusing its memory. A particle whose kinetic energy is at or
+/// below `energyFloor` (J/kg) gives birth to nothing (eq. 1 clamps its I_k to 0):
+/// its trapped air and crest are left 0 and its neighbours are summed only for
+/// a surface normal. The default (-1) computes every particle's potentials, as
+/// the bake's statistics need.
 void computePotentials(const std::vector<Vec3r>& positions, const std::vector<Vec3r>& velocities,
-                       const NeighborLists& neighbors, Real h, FluidPotentials& out);
+                       const NeighborLists& neighbors, Real h, FluidPotentials& out, float energyFloor = -1);
 inline FluidPotentials computePotentials(const std::vector<Vec3r>& positions, const std::vector<Vec3r>& velocities,
                                          const NeighborLists& neighbors, Real h) {
   FluidPotentials out;

@@ -10,8 +10,11 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/points/PointConversion.h>
 #include <openvdb/points/PointDataGrid.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstring>
 #include <numeric>
 #include <sstream>
@@ -65,8 +68,20 @@ void writeWhitewaterVdb(const fs::path& path, const WhitewaterFrame& frame) {
   const DiffuseParticles& p = frame.particles;
   const std::size_t count = p.size();
   if (frame.type.size() != count) throw std::logic_error("writeWhitewaterVdb: one type per particle");
+  if (count > 0 && *std::max_element(p.id.begin(), p.id.end()) > std::uint32_t(INT32_MAX))
+    throw std::runtime_error("whitewater: more than 2^31 particles born in one run (lower rate_scale)");
   std::vector<openvdb::Vec3R> positions(count);
-  for (std::size_t i = 0; i < count; ++i) positions[i] = openvdb::Vec3R(p.position[i].x(), p.position[i].y(), p.position[i].z());
+  std::vector<openvdb::Vec3f> velocity(count);
+  std::vector<int32_t> ids(count), types(count);
+  std::vector<float> age(p.age.begin(), p.age.end());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 16384), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      positions[i] = openvdb::Vec3R(p.position[i].x(), p.position[i].y(), p.position[i].z());
+      velocity[i] = openvdb::Vec3f(p.velocity[i].x(), p.velocity[i].y(), p.velocity[i].z());
+      ids[i] = int32_t(p.id[i]);
+      types[i] = int32_t(frame.type[i]);
+    }
+  });
   points::PointAttributeVector<openvdb::Vec3R> positionWrapper(positions);
   // Voxels of two fluid spacings, as the particle caches: P's precision is 2 spacings / 65536.
   const double voxelSize = frame.spacing > 0 ? 2.0 * frame.spacing : 0.01;
@@ -76,16 +91,6 @@ void writeWhitewaterVdb(const fs::path& path, const WhitewaterFrame& frame) {
                                                                                                *transform);
   auto& tree = grid->tree();
   const auto& indexTree = indexGrid->tree();
-  std::vector<openvdb::Vec3f> velocity(count);
-  std::vector<int32_t> ids(count), types(count);
-  std::vector<float> age(p.age.begin(), p.age.end());
-  for (std::size_t i = 0; i < count; ++i) {
-    velocity[i] = openvdb::Vec3f(p.velocity[i].x(), p.velocity[i].y(), p.velocity[i].z());
-    if (p.id[i] > std::uint32_t(INT32_MAX))
-      throw std::runtime_error("whitewater: more than 2^31 particles born in one run (lower rate_scale)");
-    ids[i] = int32_t(p.id[i]);
-    types[i] = int32_t(frame.type[i]);
-  }
   points::appendAttribute<openvdb::Vec3f>(tree, "v");
   populatePointAttribute(tree, indexTree, "v", velocity);
   points::appendAttribute<int32_t>(tree, "id");
@@ -122,25 +127,46 @@ WhitewaterFrame readWhitewaterVdb(const fs::path& path) {
       if (descriptor.find(name) == points::AttributeSet::INVALID_POS)
         throw InputError(path.string() + ": whitewater points lack the \"" + std::string(name) + "\" attribute");
     const auto& transform = grid->transform();
-    DiffuseParticles& p = frame.particles;
-    p.reserve(std::size_t(points::pointCount(grid->constTree())));
+    // Leaf by leaf in parallel, each into its own slice (the leaves' order).
+    std::vector<const points::PointDataTree::LeafNodeType*> leaves;
+    std::vector<std::size_t> first{0};
     for (; leaf; ++leaf) {
-      points::AttributeHandle<openvdb::Vec3f> position(leaf->constAttributeArray("P"));
-      points::AttributeHandle<openvdb::Vec3f> velocity(leaf->constAttributeArray("v"));
-      points::AttributeHandle<int32_t> id(leaf->constAttributeArray("id"));
-      points::AttributeHandle<int32_t> type(leaf->constAttributeArray("type"));
-      points::AttributeHandle<float> age(leaf->constAttributeArray("age"));
-      for (auto index = leaf->beginIndexOn(); index; ++index) {
-        const openvdb::Vec3d world = transform.indexToWorld(openvdb::Vec3d(position.get(*index)) + index.getCoord().asVec3d());
-        const openvdb::Vec3f v = velocity.get(*index);
-        const int32_t t = type.get(*index);
-        if (t < 0 || t >= kDiffuseTypeCount)
-          throw InputError(path.string() + ": whitewater type " + std::to_string(t) + " is not 0, 1 or 2");
-        p.push_back(Vec3r(float(world.x()), float(world.y()), float(world.z())), Vec3r(v.x(), v.y(), v.z()),
-                    std::uint32_t(id.get(*index)), age.get(*index));
-        frame.type.push_back(DiffuseType(t));
-      }
+      leaves.push_back(&*leaf);
+      first.push_back(first.back() + std::size_t(leaf->onPointCount()));
     }
+    const std::size_t count = first.back();
+    DiffuseParticles& p = frame.particles;
+    p.position.resize(count);
+    p.velocity.resize(count);
+    p.id.resize(count);
+    p.age.resize(count);
+    frame.type.resize(count);
+    std::atomic<int> badType{-1};
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size()), [&](const auto& range) {
+      for (std::size_t l = range.begin(); l != range.end(); ++l) {
+        const auto& node = *leaves[l];
+        points::AttributeHandle<openvdb::Vec3f> position(node.constAttributeArray("P"));
+        points::AttributeHandle<openvdb::Vec3f> velocity(node.constAttributeArray("v"));
+        points::AttributeHandle<int32_t> id(node.constAttributeArray("id"));
+        points::AttributeHandle<int32_t> type(node.constAttributeArray("type"));
+        points::AttributeHandle<float> age(node.constAttributeArray("age"));
+        std::size_t out = first[l];
+        for (auto index = node.beginIndexOn(); index; ++index, ++out) {
+          const openvdb::Vec3d world =
+              transform.indexToWorld(openvdb::Vec3d(position.get(*index)) + index.getCoord().asVec3d());
+          const openvdb::Vec3f v = velocity.get(*index);
+          const int32_t t = type.get(*index);
+          if (t < 0 || t >= kDiffuseTypeCount) badType = t;
+          p.position[out] = Vec3r(float(world.x()), float(world.y()), float(world.z()));
+          p.velocity[out] = Vec3r(v.x(), v.y(), v.z());
+          p.id[out] = std::uint32_t(id.get(*index));
+          p.age[out] = age.get(*index);
+          frame.type[out] = DiffuseType(t < 0 || t >= kDiffuseTypeCount ? 0 : t);
+        }
+      }
+    });
+    if (badType != -1)
+      throw InputError(path.string() + ": whitewater type " + std::to_string(badType.load()) + " is not 0, 1 or 2");
     return frame;
   } catch (const InputError&) {
     throw;

@@ -35,11 +35,6 @@ std::uint64_t drawKey(std::uint64_t seed, std::uint64_t stream, std::uint64_t a,
 }
 
 constexpr std::uint64_t kBirthStream = 0xb1e7, kLifetimeStream = 0x11fe;
-/// Diffuse particles per neighbour query: bounds the lists' memory.
-constexpr std::size_t kChunk = 1 << 16;
-
-inline Real weight(Real r, Real h) { return r < h ? Real(1) - r / h : Real(0); }
-
 } // namespace
 
 WhitewaterSolver::WhitewaterSolver(const scene::WhitewaterSettings& settings, const Vec3r& gravity, double spacing,
@@ -63,25 +58,13 @@ void WhitewaterSolver::buildFluid(const std::vector<Vec3r>& fluidPositions) {
   mGrid.build(mFluidX.data(), mFluidX.size(), mH);
 }
 
-void WhitewaterSolver::queryFluid(const Vec3r* positions, std::size_t count) {
-  if (mFluidX.empty()) {
-    mLists.offsets.assign(count + 1, 0);
-    mLists.indices.clear();
-    return;
-  }
-  mGrid.query(positions, count, nullptr, false, mLists);
-}
-
 std::vector<DiffuseType> WhitewaterSolver::classify(const DiffuseParticles& particles,
                                                     const std::vector<Vec3r>& fluidPositions) {
   buildFluid(fluidPositions);
+  sampleFluid(mGrid, nullptr, particles.position.data(), particles.size(), mH, mSamples);
   std::vector<DiffuseType> types(particles.size());
-  for (std::size_t chunk = 0; chunk < particles.size(); chunk += kChunk) {
-    const std::size_t chunkSize = std::min(kChunk, particles.size() - chunk);
-    queryFluid(particles.position.data() + chunk, chunkSize);
-    for (std::size_t q = 0; q < chunkSize; ++q)
-      types[chunk + q] = classifyDiffuse(mLists.count(q), mSettings.sprayNeighbors, mSettings.bubbleNeighbors);
-  }
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    types[i] = classifyDiffuse(mSamples[i].neighbors, mSettings.sprayNeighbors, mSettings.bubbleNeighbors);
   return types;
 }
 
@@ -99,6 +82,10 @@ IntervalStats WhitewaterSolver::advance(const FluidInterval& fluid, const std::v
   const Vec3r buoyancy = Real(-mSettings.buoyancy) * mGravity;
   const Vec3r still = Vec3r::Zero();
 
+  // Along the Z curve, so that the sub-steps visit the particles (in their
+  // cells' order) along memory. The order depends only on the positions.
+  particles.permute(zOrderPermutation(particles.position.data(), particles.size(), mH));
+
   std::vector<std::uint8_t> keep;
   std::vector<std::uint32_t> births(sources.size() + 1);
   for (int step = 0; step < stats.substeps; ++step) {
@@ -106,45 +93,35 @@ IntervalStats WhitewaterSolver::advance(const FluidInterval& fluid, const std::v
     fluid.at(t, mFluidX, mFluidV);
     buildFluid(mFluidX);
 
-    // Classify and advect every particle by its kind, then age it; in chunks, so
-    // the neighbour lists stay small whatever the particle count.
+    // Classify and advect every particle by its kind, then age it.
     const std::size_t count = particles.size();
+    mPlaceV.gather(mGrid, mFluidV);
+    sampleFluid(mGrid, &mPlaceV, particles.position.data(), count, mH, mSamples);
     keep.assign(count, 1);
-    for (std::size_t chunk = 0; chunk < count; chunk += kChunk) {
-      const std::size_t chunkSize = std::min(kChunk, count - chunk);
-      queryFluid(particles.position.data() + chunk, chunkSize);
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunkSize, 1024), [&](const auto& range) {
-        for (std::size_t q = range.begin(); q != range.end(); ++q) {
-          const std::size_t i = chunk + q;
-          Vec3r& x = particles.position[i];
-          Vec3r& v = particles.velocity[i];
-          const DiffuseType type =
-              classifyDiffuse(mLists.count(q), mSettings.sprayNeighbors, mSettings.bubbleNeighbors);
-          if (type == DiffuseType::Spray) {
-            relaxMotion(x, v, still, mGravity, mSettings.airDrag, dt);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 4096), [&](const auto& range) {
+      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+        Vec3r& x = particles.position[i];
+        Vec3r& v = particles.velocity[i];
+        const FluidSample& fluidAround = mSamples[i];
+        const DiffuseType type =
+            classifyDiffuse(fluidAround.neighbors, mSettings.sprayNeighbors, mSettings.bubbleNeighbors);
+        if (type == DiffuseType::Spray) {
+          relaxMotion(x, v, still, mGravity, mSettings.airDrag, dt);
+        } else {
+          // v_f: the fluid velocity around the particle (Ihmsen 2012 eq. 10).
+          const Vec3r fluidVelocity = fluidAround.weight > 0 ? fluidAround.velocity : v;
+          if (type == DiffuseType::Foam) {
+            x += Real(dt) * fluidVelocity;
+            v = fluidVelocity;
           } else {
-            // v_f: the fluid velocity around the particle, W-weighted (Ihmsen 2012 eq. 10).
-            Vec3r sum = Vec3r::Zero();
-            Real weights = 0;
-            for (const std::uint32_t* j = mLists.begin(q); j != mLists.end(q); ++j) {
-              const Real w = weight((x - mFluidX[*j]).norm(), mH);
-              sum += w * mFluidV[*j];
-              weights += w;
-            }
-            const Vec3r fluidVelocity = weights > 0 ? Vec3r(sum / weights) : v;
-            if (type == DiffuseType::Foam) {
-              x += Real(dt) * fluidVelocity;
-              v = fluidVelocity;
-            } else {
-              relaxMotion(x, v, fluidVelocity, buoyancy, mSettings.bubbleDrag, dt);
-            }
+            relaxMotion(x, v, fluidVelocity, buoyancy, mSettings.bubbleDrag, dt);
           }
-          particles.age[i] += float(dt);
-          if (type == DiffuseType::Foam && particles.age[i] > lifetime(particles.id[i])) keep[i] = 2;  // dissolved
-          else if (!mDomain.contains(x)) keep[i] = 3;                                                 // left
         }
-      });
-    }
+        particles.age[i] += float(dt);
+        if (type == DiffuseType::Foam && particles.age[i] > lifetime(particles.id[i])) keep[i] = 2;  // dissolved
+        else if (!mDomain.contains(x)) keep[i] = 3;                                                 // left
+      }
+    });
     for (std::uint8_t& k : keep) {
       if (k == 2) ++stats.dissolved;
       if (k == 3) ++stats.left;

@@ -25,6 +25,7 @@
 #include "libsph/scene/Scene.h"
 #include "libsph/search/UniformGridSearch.h"
 #include "whitewater/DiffuseParticles.h"
+#include "whitewater/FluidSampling.h"
 #include "whitewater/FluidInterval.h"
 
 #include <cstdint>
@@ -73,7 +74,6 @@ public:
 
 private:
   void buildFluid(const std::vector<Vec3r>& fluidPositions);
-  void queryFluid(const Vec3r* positions, std::size_t count);
 
   scene::WhitewaterSettings mSettings;
   Vec3r mGravity;
@@ -81,8 +81,9 @@ private:
   RemovalBox mDomain;
   std::uint64_t mSeed;
   search::UniformGridSearch mGrid;
-  NeighborLists mLists;
   std::vector<Vec3r> mFluidX, mFluidV;
+  PlaceVelocities mPlaceV;           ///< mFluidV in the grid's place order
+  std::vector<FluidSample> mSamples;  ///< the fluid around each diffuse particle
 };
 
 } // namespace cascade::whitewater

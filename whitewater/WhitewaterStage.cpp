@@ -44,10 +44,11 @@ std::map<int, fs::path> cacheFiles(const OutputLayout& layout) {
 /// cost as much as the neighbour search).
 class FramePotentials {
 public:
-  const FluidPotentials& of(const ParticleFrame& frame, Real h, const std::string& label) {
+  /// `energyFloor`: as computePotentials() (-1: every particle's).
+  const FluidPotentials& of(const ParticleFrame& frame, Real h, const std::string& label, float energyFloor = -1) {
     fluidArrays(frame, mX, mV, label);
     mGrid.findNeighbors(mX.data(), mX.size(), h, mNeighbors);
-    computePotentials(mX, mV, mNeighbors, h, mPotentials);
+    computePotentials(mX, mV, mNeighbors, h, mPotentials, energyFloor);
     return mPotentials;
   }
 
@@ -129,7 +130,8 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
     throw InputError(caches.at(firstFrame).string() + ": the cache does not say its particle spacing (give --spacing)");
   const auto bakeHashIt = firstCache.metadata.find("bake_hash");
   WhitewaterRunReport report;
-  report.inputHash = whitewaterHash(options, bakeHashIt == firstCache.metadata.end() ? "" : bakeHashIt->second);
+  const std::string settingsHash =
+      whitewaterHash(options, bakeHashIt == firstCache.metadata.end() ? "" : bakeHashIt->second);
   const double fps = options.fps > 0 ? options.fps : 30.0;
   const auto frameTime = [&](const ParticleFrame& cache, int frame) {
     return cache.time > 0 ? cache.time : frame / fps;
@@ -148,12 +150,13 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
   fs::create_directories(layout.whitewaterDir());
   if (settings.limits == "auto") {
     const fs::path limitsFile = layout.whitewaterDir() / "limits.json";
+    const nlohmann::json cachedFrames = {firstFrame, caches.rbegin()->first, caches.size()};
     bool have = false;
     std::error_code error;
     if (fs::is_regular_file(limitsFile, error)) {
       try {
         const nlohmann::json kept = nlohmann::json::parse(readTextFile(limitsFile));
-        if (kept.at("input_hash") == report.inputHash) {
+        if (kept.at("input_hash") == settingsHash && kept.at("cached_frames") == cachedFrames) {
           limits.trappedAir = kept.at("trapped_air").get<std::array<double, 2>>();
           limits.waveCrest = kept.at("wave_crest").get<std::array<double, 2>>();
           limits.kineticEnergy = kept.at("kinetic_energy").get<std::array<double, 2>>();
@@ -176,13 +179,26 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
       }
       limits = limitsFromStatistics(potentials, physicalFloors(h, options.gravity.norm()));
       nlohmann::json kept = limitsToJson(limits);
-      kept["input_hash"] = report.inputHash;
+      kept["input_hash"] = settingsHash;
+      kept["cached_frames"] = cachedFrames;  // first, last, count
       kept["frames_sampled"] = samples;
       writeTextAtomically(limitsFile, kept.dump(2) + "\n");
     }
     report.limitsFromStatistics = true;
+    report.limitsFromPartialBake = options.bakeLastFrame && caches.rbegin()->first < *options.bakeLastFrame;
   }
   report.limits = limits;
+  // The frames' hash: the stage's inputs and the limits they were made with.
+  report.inputHash = settingsHash;
+  if (report.limitsFromStatistics) {
+    const std::string chained = settingsHash + limitsToJson(limits).dump();
+    report.inputHash = scene::hexHash(scene::fnv1a(chained.data(), chained.size()));
+  }
+  if (report.limitsFromPartialBake)
+    say("whitewater: the bake is not finished (caches up to frame " + std::to_string(caches.rbegin()->first) +
+        " of " + std::to_string(*options.bakeLastFrame) +
+        "): automatic limits from the frames there are; a run after the bake makes them again and remakes the "
+        "frames made now");
   {
     std::ostringstream line;
     line << "whitewater: limits (" << (report.limitsFromStatistics ? "from the bake's statistics" : "fixed")
@@ -247,7 +263,9 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
       if (!(t1 > t0))
         throw InputError(caches.at(frame).string() + ": its time is not after the frame before's");
       const auto potentialStart = std::chrono::steady_clock::now();
-      const FluidPotentials& potentials = framePotentials.of(*previousCache, h, label);
+      // Only the particles fast enough to give birth need their sums.
+      const FluidPotentials& potentials =
+          framePotentials.of(*previousCache, h, label, float(limits.kineticEnergy[0]));
       const std::vector<float> rates = birthRates(potentials, limits, settings.trappedAirRate,
                                                   settings.waveCrestRate, settings.rateScale);
       frameReport.potentialSeconds = secondsSince(potentialStart);

@@ -16,7 +16,10 @@
 ///
 /// Limits "auto": the clamping ranges come from the potentials of up to 16
 /// frames spread over all the caches (Potentials.h, limitsFromStatistics),
-/// kept in OUT/whitewater/limits.json with the input hash they belong to.
+/// kept in OUT/whitewater/limits.json with the input hash and the cached
+/// frames they were made from. The limits enter the frames' input hash: when
+/// more of the bake is cached (a run on a bake still going), they are made
+/// again, and frames made with other limits are remade, never kept.
 #pragma once
 
 #include "libsph/io/OutputLayout.h"
@@ -42,6 +45,9 @@ struct WhitewaterStageOptions {
   double spacing = 0;  ///< the fluid's particle spacing, m (0: the caches')
   FrameRange frames;   ///< frames to make (unset bounds: the caches')
   bool force = false;  ///< remake frames of the range that are already good
+  /// The bake's last frame (the scene's frame count), when known: automatic
+  /// limits made while the caches stop before it say so.
+  std::optional<int> bakeLastFrame;
 };
 
 struct WhitewaterFrameReport {
@@ -57,7 +63,10 @@ struct WhitewaterFrameReport {
 struct WhitewaterRunReport {
   PotentialLimits limits;
   bool limitsFromStatistics = false;
-  std::string inputHash;
+  /// Automatic limits from a bake that is not finished (its caches stop before
+  /// bakeLastFrame): the frames made with them are remade once it is.
+  bool limitsFromPartialBake = false;
+  std::string inputHash;  ///< of the frames: the stage's inputs and its limits
   std::vector<WhitewaterFrameReport> frames;
 };
 

@@ -35,9 +35,8 @@ constexpr std::size_t kPad = kScanPadding;
 
 inline std::uint64_t hashKey(std::uint64_t key) { return key * 0x9E3779B97F4A7C15ULL; }
 
-struct CellRange {
-  std::uint32_t begin, end;
-};
+/// Places [begin, end) of a cell or of adjacent cells.
+using CellRange = UniformGridSearch::PlaceRange;
 
 } // namespace
 
@@ -336,6 +335,31 @@ struct GridQuery {
         }
   }
 
+  /// Scans every occupied cell of the box [lo, hi] of unclamped cell coordinates.
+  template <typename Emit>
+  void scanBoxOf(const std::int64_t lo[3], const std::int64_t hi[3], Emit&& emit) const {
+    std::uint32_t boxLo[3], boxHi[3];
+    for (int a = 0; a < 3; ++a) {
+      boxLo[a] = clampToLattice(lo[a]);
+      boxHi[a] = std::min(clampToLattice(hi[a]), grid.mMaxCell[a]);
+      if (boxLo[a] > boxHi[a] || hi[a] < 0) return;
+    }
+    scanBox(boxLo, boxHi, emit);
+  }
+
+  /// Every occupied cell within `radius` of q (the general path's box).
+  template <typename Emit>
+  void forEachCellAround(const Vec3r& q, Real radius, Emit&& emit) const {
+    const double reach = std::fabs(double(radius)) * (1.0 + kRangeMargin) + kRangeSlack;
+    if (!(reach >= 0)) return;
+    std::int64_t lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = latticeFloor((double(q[a]) - reach - grid.mOrigin[a]) * grid.mInvCellSize);
+      hi[a] = latticeFloor((double(q[a]) + reach - grid.mOrigin[a]) * grid.mInvCellSize);
+    }
+    scanBoxOf(lo, hi, emit);
+  }
+
   /// Processes the query places of groups [groupBegin, groupEnd) into buffer;
   /// writes each query's neighbour count to counts[query index].
   template <typename Scan>
@@ -438,18 +462,10 @@ struct GridQuery {
                 }
           }
         } else if (!empty) {
-          std::uint32_t boxLo[3], boxHi[3];
-          for (int a = 0; a < 3; ++a) {
-            boxLo[a] = clampToLattice(lo[a]);
-            boxHi[a] = std::min(clampToLattice(hi[a]), grid.mMaxCell[a]);
-            if (boxLo[a] > boxHi[a]) empty = true;
-          }
-          if (!empty)
-            scanBox(boxLo, boxHi, [&](std::uint32_t begin, std::uint32_t end) {
-              std::uint32_t* out = writer.reserve(end - begin);
-              writer.advance(Scan::scan(xs, ys, zs, order, begin, end, qx, qy, qz, radius2,
-                                       exclude, out));
-            });
+          scanBoxOf(lo, hi, [&](std::uint32_t begin, std::uint32_t end) {
+            std::uint32_t* out = writer.reserve(end - begin);
+            writer.advance(Scan::scan(xs, ys, zs, order, begin, end, qx, qy, qz, radius2, exclude, out));
+          });
         }
         writer.advance(found);
         writer.finishQuery(q);
@@ -463,40 +479,34 @@ CASCADE_SEARCH_AVX2_TARGET void runGridChunkAvx2(const GridQuery& job, std::size
   job.runChunk<ScanAvx2>(groupBegin, groupEnd, writer);
 }
 
-void UniformGridSearch::query(const Vec3r* queries, std::size_t count, const Real* supportRadii,
-                              bool excludeSelf, NeighborLists& out) const {
-  out.offsets.resize(count + 1);
-  out.offsets[0] = 0;
-  if (count == 0 || mCount == 0) {
-    std::fill(out.offsets.begin(), out.offsets.end(), 0u);
-    out.indices.clear();
-    return;
-  }
-  if (count >= std::size_t(kNoIndex))
-    throw std::length_error("grid neighbour search: too many queries (" + std::to_string(count) + ")");
-
-  std::unique_lock<std::mutex> lock(mScratchMutex, std::try_to_lock);
-  ListScratch localScratch;
-  ListScratch& scratch = lock.owns_lock() ? mScratch : localScratch;
-
-  // Group the queries by cell, in curve order.
-  const bool self = queries == mPoints && count == mCount;
+/// The queries of one call grouped by cell in curve order, and cut into chunks
+/// of whole groups with about the same number of queries.
+struct UniformGridSearch::QueryGroups {
+  bool self = false;
   std::vector<std::uint32_t> ownOrder, ownGroupStart;
   std::vector<std::uint64_t> ownGroupKey;
-  const std::uint32_t* queryOrder;
-  const std::uint32_t* groupStart;
-  const std::uint64_t* groupKey;
-  std::size_t groups;
-  if (self) {
-    queryOrder = mOrder.data();
-    groupStart = mCellStart.data();
-    groupKey = mCellKey.data();
-    groups = mCellKey.size();
+  const std::uint32_t* queryOrder = nullptr;
+  const std::uint32_t* groupStart = nullptr;
+  const std::uint64_t* groupKey = nullptr;
+  std::size_t groups = 0;
+  std::vector<std::size_t> chunkGroup;
+  std::vector<std::uint32_t> chunkStart;
+};
+
+void UniformGridSearch::groupQueries(const Vec3r* queries, std::size_t count, QueryGroups& out) const {
+  if (count >= std::size_t(kNoIndex))
+    throw std::length_error("grid neighbour search: too many queries (" + std::to_string(count) + ")");
+  out.self = queries == mPoints && count == mCount;
+  if (out.self) {
+    out.queryOrder = mOrder.data();
+    out.groupStart = mCellStart.data();
+    out.groupKey = mCellKey.data();
+    out.groups = mCellKey.size();
   } else {
     std::vector<std::uint64_t> keys(count), keyScratch;
     std::vector<std::uint32_t> indexScratch;
-    ownOrder.resize(count);
-    std::iota(ownOrder.begin(), ownOrder.end(), 0u);
+    out.ownOrder.resize(count);
+    std::iota(out.ownOrder.begin(), out.ownOrder.end(), 0u);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 8192), [&](const auto& range) {
       for (std::size_t i = range.begin(); i != range.end(); ++i) {
         std::uint32_t c[3];
@@ -510,38 +520,96 @@ void UniformGridSearch::query(const Vec3r* queries, std::size_t count, const Rea
     });
     const int keyBits = 3 * bitWidth(std::max({std::uint64_t(mMaxCell[0]), std::uint64_t(mMaxCell[1]),
                                                std::uint64_t(mMaxCell[2])}));
-    radixSortPairs(keys, ownOrder, keyBits, keyScratch, indexScratch);
+    radixSortPairs(keys, out.ownOrder, keyBits, keyScratch, indexScratch);
     for (std::size_t s = 0; s < count; ++s)
       if (s == 0 || keys[s] != keys[s - 1]) {
-        ownGroupStart.push_back(static_cast<std::uint32_t>(s));
-        ownGroupKey.push_back(keys[s]);
+        out.ownGroupStart.push_back(static_cast<std::uint32_t>(s));
+        out.ownGroupKey.push_back(keys[s]);
       }
-    ownGroupStart.push_back(static_cast<std::uint32_t>(count));
-    queryOrder = ownOrder.data();
-    groupStart = ownGroupStart.data();
-    groupKey = ownGroupKey.data();
-    groups = ownGroupKey.size();
+    out.ownGroupStart.push_back(static_cast<std::uint32_t>(count));
+    out.queryOrder = out.ownOrder.data();
+    out.groupStart = out.ownGroupStart.data();
+    out.groupKey = out.ownGroupKey.data();
+    out.groups = out.ownGroupKey.size();
   }
-
-  // Chunks of whole groups with about the same number of queries.
   const std::size_t target = std::max<std::size_t>(512, count / 256);
-  std::vector<std::size_t> chunkGroup{0};
-  std::vector<std::uint32_t> chunkStart{0};
-  for (std::size_t g = 0; g < groups; ++g)
-    if (groupStart[g + 1] - groupStart[chunkGroup.back()] >= target || g + 1 == groups) {
-      chunkGroup.push_back(g + 1);
-      chunkStart.push_back(groupStart[g + 1]);
+  out.chunkGroup.assign(1, 0);
+  out.chunkStart.assign(1, 0);
+  for (std::size_t g = 0; g < out.groups; ++g)
+    if (out.groupStart[g + 1] - out.groupStart[out.chunkGroup.back()] >= target || g + 1 == out.groups) {
+      out.chunkGroup.push_back(g + 1);
+      out.chunkStart.push_back(out.groupStart[g + 1]);
     }
+}
 
-  const GridQuery job{*this, queries, supportRadii, excludeSelf, self, queryOrder, groupStart, groupKey};
+void UniformGridSearch::query(const Vec3r* queries, std::size_t count, const Real* supportRadii,
+                              bool excludeSelf, NeighborLists& out) const {
+  out.offsets.resize(count + 1);
+  out.offsets[0] = 0;
+  if (count == 0 || mCount == 0) {
+    std::fill(out.offsets.begin(), out.offsets.end(), 0u);
+    out.indices.clear();
+    return;
+  }
+  std::unique_lock<std::mutex> lock(mScratchMutex, std::try_to_lock);
+  ListScratch localScratch;
+  ListScratch& scratch = lock.owns_lock() ? mScratch : localScratch;
+
+  QueryGroups groups;
+  groupQueries(queries, count, groups);
+  const GridQuery job{*this,        queries,           supportRadii,      excludeSelf,
+                      groups.self, groups.queryOrder, groups.groupStart, groups.groupKey};
   const bool avx2 = searchUsesAvx2();
-  assembleLists(count, queryOrder, chunkStart, scratch, out,
+  assembleLists(count, groups.queryOrder, groups.chunkStart, scratch, out,
                 [&](std::size_t chunk, std::uint32_t, std::uint32_t, ChunkWriter& writer) {
                   if (avx2)
-                    runGridChunkAvx2(job, chunkGroup[chunk], chunkGroup[chunk + 1], writer);
+                    runGridChunkAvx2(job, groups.chunkGroup[chunk], groups.chunkGroup[chunk + 1], writer);
                   else
-                    job.runChunk<ScanBaseline>(chunkGroup[chunk], chunkGroup[chunk + 1], writer);
+                    job.runChunk<ScanBaseline>(groups.chunkGroup[chunk], groups.chunkGroup[chunk + 1], writer);
                 });
+}
+
+void UniformGridSearch::visitQueryGroups(const Vec3r* queries, std::size_t count, GroupVisit visit,
+                                         void* context) const {
+  if (count == 0) return;
+  if (mCount == 0) {
+    for (std::uint32_t q = 0; q < count; ++q) visit(context, &q, 1, nullptr, 0);
+    return;
+  }
+  QueryGroups groups;
+  groupQueries(queries, count, groups);
+  // A group's queries in ascending index (the sort keeps index order within a
+  // cell; a self query's cell lists its points in index order too).
+  const GridQuery job{*this, queries, nullptr, false, groups.self, groups.queryOrder, groups.groupStart,
+                      groups.groupKey};
+  const std::size_t chunks = groups.chunkStart.size() - 1;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& range) {
+    GridQuery::Stencil stencil;
+    std::vector<PlaceRange> boxRanges;
+    for (std::size_t c = range.begin(); c != range.end(); ++c)
+      for (std::size_t g = groups.chunkGroup[c]; g < groups.chunkGroup[c + 1]; ++g) {
+        const std::uint32_t* members = groups.queryOrder + groups.groupStart[g];
+        const std::uint32_t size = groups.groupStart[g + 1] - groups.groupStart[g];
+        if (mSelfStencilOk) {
+          // The build radius reaches one cell: the 27 cells around the group's
+          // (clamped) cell hold every neighbour of its queries, also of those
+          // outside the occupied box that were clamped onto its border.
+          job.makeStencil(groups.groupKey[g], stencil);
+          visit(context, members, size, stencil.merged.data(), std::uint32_t(stencil.mergedCount));
+          continue;
+        }
+        // Cells clamped at the lattice's edge: each query its own box of cells.
+        for (std::uint32_t k = 0; k < size; ++k) {
+          boxRanges.clear();
+          job.forEachCellAround(queries[members[k]], mRadius, [&](std::uint32_t begin, std::uint32_t end) {
+            boxRanges.push_back({begin, end});
+          });
+          std::sort(boxRanges.begin(), boxRanges.end(),
+                    [](const PlaceRange& a, const PlaceRange& b) { return a.begin < b.begin; });
+          visit(context, members + k, 1, boxRanges.data(), std::uint32_t(boxRanges.size()));
+        }
+      }
+  });
 }
 
 } // namespace cascade::search

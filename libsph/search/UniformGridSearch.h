@@ -33,6 +33,7 @@
 
 #include <cstdint>
 #include <mutex>
+#include <type_traits>
 #include <vector>
 
 namespace cascade::search {
@@ -44,6 +45,38 @@ public:
   /// Not reentrant for concurrent calls on the same object (it reuses scratch memory).
   void query(const Vec3r* queries, std::size_t count, const Real* supportRadii, bool excludeSelf,
              NeighborLists& out) const override;
+
+  /// Place ranges [begin, end) of the last build (see placeOrder()).
+  struct PlaceRange {
+    std::uint32_t begin, end;
+  };
+
+  /// Candidate form of a query with the build radius, for a pass that tests
+  /// the distances itself (and so keeps no lists): calls
+  /// visit(queryIndices, queryCount, ranges, rangeCount) for groups of queries,
+  /// each query in exactly one group. Every point within the build radius of a
+  /// group's query (squaredDistance() <= radius^2) sits at a place in one of the
+  /// group's ranges, which hold other points too; ranges do not overlap and
+  /// ascend. A group is the queries of one grid cell (the 27 cells around it),
+  /// in ascending index, so the groups and their ranges depend only on the
+  /// points and the queries. Groups are visited from several threads at once.
+  template <typename Visit>
+  void forEachQueryGroup(const Vec3r* queries, std::size_t count, Visit&& visit) const {
+    using V = std::remove_reference_t<Visit>;
+    visitQueryGroups(
+        queries, count,
+        [](void* context, const std::uint32_t* group, std::uint32_t size, const PlaceRange* ranges,
+           std::uint32_t rangeCount) { (*static_cast<V*>(context))(group, size, ranges, rangeCount); },
+        const_cast<void*>(static_cast<const void*>(&visit)));
+  }
+
+  /// The last build's points by place (curve order): placeOrder()[k] is the
+  /// index of the point at place k, at (placeX()[k], placeY()[k], placeZ()[k]).
+  const std::uint32_t* placeOrder() const { return mOrder.data(); }
+  const Real* placeX() const { return mX.data(); }
+  const Real* placeY() const { return mY.data(); }
+  const Real* placeZ() const { return mZ.data(); }
+  std::size_t pointCount() const { return mCount; }
 
   /// The Z-order of the last build: order[k] is the index of the point at
   /// place k along the curve. Particles::permute(zOrder()) sorts particles so
@@ -63,6 +96,11 @@ public:
 
 private:
   struct Frame;
+  struct QueryGroups;
+  void groupQueries(const Vec3r* queries, std::size_t count, QueryGroups& out) const;
+  using GroupVisit = void (*)(void* context, const std::uint32_t* group, std::uint32_t size,
+                              const PlaceRange* ranges, std::uint32_t rangeCount);
+  void visitQueryGroups(const Vec3r* queries, std::size_t count, GroupVisit visit, void* context) const;
   void computeFrame(const Vec3r* points, std::size_t count, Real maxSupportRadius);
   void sortPoints(const Vec3r* points, std::size_t count, bool sameFrame);
   void buildCells();

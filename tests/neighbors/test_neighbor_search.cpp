@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <mutex>
 #include <random>
 #include <set>
 
@@ -279,6 +280,68 @@ TEST(UniformGridSearch, IncrementalRebuildFromThePreviousOrderIsCanonical) {
     full.query(points.data(), points.size(), nullptr, true, b);
     ASSERT_EQ(a.indices, b.indices) << frame;
     ASSERT_EQ(toSets(a), bruteSets(points, points, 0.0203f, nullptr, true)) << frame;
+  }
+}
+
+TEST(UniformGridSearch, QueryGroupsCoverEveryNeighbourOnce) {
+  // Another point set (queries inside, on the edge of and far outside the
+  // points' box), the points themselves, and points far apart (cells clamped at
+  // the lattice's edge: the per-query boxes): every query is in one group, its
+  // ranges hold every brute-force neighbour, and the place coordinates are the
+  // points'.
+  auto points = damBreakWithDroplets(0.01f, 18, 12, 10, 40, 21);
+  auto others = uniformPoints(6000, 0.3f, 22);
+  others.emplace_back(-5, -5, -5);
+  others.emplace_back(0.0f, 0.0f, -0.015f);
+  auto far = points;
+  far.emplace_back(1e5f, 0.0f, 0.0f);
+  struct Case {
+    const std::vector<Vec3r>* points;
+    const std::vector<Vec3r>* queries;
+  };
+  for (const Case& c : {Case{&points, &others}, Case{&points, &points}, Case{&far, &others}}) {
+    search::UniformGridSearch grid;
+    grid.build(c.points->data(), c.points->size(), 0.0203f);
+    ASSERT_EQ(grid.pointCount(), c.points->size());
+    const Sets expected = bruteSets(*c.points, *c.queries, 0.0203f, nullptr, false);
+    std::vector<std::vector<std::uint32_t>> found(c.queries->size());
+    std::vector<int> calls(c.queries->size(), 0);
+    std::mutex mutex;
+    grid.forEachQueryGroup(c.queries->data(), c.queries->size(),
+                           [&](const std::uint32_t* group, std::uint32_t size,
+                               const search::UniformGridSearch::PlaceRange* ranges, std::uint32_t rangeCount) {
+                             std::lock_guard<std::mutex> lock(mutex);
+                             for (std::uint32_t r = 0; r < rangeCount; ++r) {
+                               ASSERT_LT(ranges[r].begin, ranges[r].end);
+                               ASSERT_LE(ranges[r].end, c.points->size());
+                               if (r > 0) {
+                                 ASSERT_LE(ranges[r - 1].end, ranges[r].begin);
+                               }
+                             }
+                             for (std::uint32_t k = 0; k < size; ++k) {
+                               const std::uint32_t q = group[k];
+                               if (k > 0) {
+                                 ASSERT_LT(group[k - 1], q);
+                               }
+                               ++calls[q];
+                               const Vec3r& x = (*c.queries)[q];
+                               for (std::uint32_t r = 0; r < rangeCount; ++r)
+                                 for (std::uint32_t place = ranges[r].begin; place < ranges[r].end; ++place) {
+                                   const Vec3r p(grid.placeX()[place], grid.placeY()[place], grid.placeZ()[place]);
+                                   const std::uint32_t j = grid.placeOrder()[place];
+                                   ASSERT_EQ(p, (*c.points)[j]);
+                                   if (squaredDistance(x, p) <= 0.0203f * 0.0203f) found[q].push_back(j);
+                                 }
+                             }
+                           });
+    std::size_t total = 0;
+    for (std::size_t q = 0; q < c.queries->size(); ++q) {
+      ASSERT_EQ(calls[q], 1) << q;
+      std::sort(found[q].begin(), found[q].end());
+      ASSERT_EQ(found[q], expected[q]) << q;
+      total += found[q].size();
+    }
+    EXPECT_GT(total, c.queries->size());
   }
 }
 

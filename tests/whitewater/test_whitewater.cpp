@@ -7,6 +7,7 @@
 #include "libsph/io/Ply.h"
 #include "libsph/search/UniformGridSearch.h"
 #include "whitewater/DiffuseAdvection.h"
+#include "whitewater/FluidSampling.h"
 #include "whitewater/Potentials.h"
 #include "whitewater/WhitewaterFile.h"
 #include "whitewater/WhitewaterSolver.h"
@@ -15,6 +16,8 @@
 #include <tbb/global_control.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <random>
 
 using namespace cascade;
 using namespace cascade::whitewater;
@@ -150,6 +153,61 @@ TEST(DiffuseAdvection, RelaxMotionIsExactForAnyStep) {
   Vec3r x3(0, 0, 0), v3(0, 0, 0);
   relaxMotion(x3, v3, u, a, 5.0, 10.0);
   EXPECT_NEAR((v3 - (u + a / 5)).norm(), 0, 1e-5);
+}
+
+TEST(FluidSampling, CountsAndWeightedVelocityAreBruteForcesOnEveryProcessorPath) {
+  // A jittered block of fluid with a shear flow, sampled at positions inside,
+  // on its surface and far away; against the sums over all fluid particles, and
+  // the AVX2 and the portable version bit for bit.
+  const Real spacing = 0.01f, h = 2 * spacing;
+  std::vector<Vec3r> fluid, velocity;
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<Real> jitter(-0.2f * spacing, 0.2f * spacing);
+  for (int k = 0; k < 12; ++k)
+    for (int j = 0; j < 10; ++j)
+      for (int i = 0; i < 14; ++i) {
+        const Vec3r x(i * spacing + jitter(rng), j * spacing + jitter(rng), k * spacing + jitter(rng));
+        fluid.push_back(x);
+        velocity.emplace_back(x.z() * 10, Real(0.5) - x.x(), Real(0.1) * std::sin(x.y() * 50));
+      }
+  std::vector<Vec3r> at;
+  std::uniform_real_distribution<Real> inside(-0.03f, 0.16f);
+  for (int q = 0; q < 3000; ++q) at.emplace_back(inside(rng), inside(rng), inside(rng));
+  at.emplace_back(5, 5, 5);
+  search::UniformGridSearch grid;
+  grid.build(fluid.data(), fluid.size(), h);
+  PlaceVelocities places;
+  places.gather(grid, velocity);
+  std::vector<FluidSample> fast, portable, counts;
+  sampleFluid(grid, &places, at.data(), at.size(), h, fast);
+  sampleFluid(grid, nullptr, at.data(), at.size(), h, counts);
+  ::setenv("CASCADE_NO_AVX2", "1", 1);
+  sampleFluid(grid, &places, at.data(), at.size(), h, portable);
+  ::unsetenv("CASCADE_NO_AVX2");
+  std::size_t withFluid = 0;
+  for (std::size_t q = 0; q < at.size(); ++q) {
+    std::uint32_t neighbors = 0;
+    double weight = 0;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (std::size_t j = 0; j < fluid.size(); ++j) {
+      if (squaredDistance(at[q], fluid[j]) > h * h) continue;
+      ++neighbors;
+      const double w = std::max(0.0, 1.0 - double((at[q] - fluid[j]).norm()) / double(h));
+      weight += w;
+      sum += w * velocity[j].cast<double>();
+    }
+    ASSERT_EQ(fast[q].neighbors, neighbors) << q;
+    ASSERT_EQ(counts[q].neighbors, neighbors) << q;
+    ASSERT_NEAR(fast[q].weight, weight, 1e-5 * (1 + weight)) << q;
+    if (weight > 1e-3) {
+      ++withFluid;
+      ASSERT_LT((fast[q].velocity.cast<double>() - sum / weight).norm(), 1e-5) << q;
+    }
+    ASSERT_EQ(portable[q].neighbors, fast[q].neighbors) << q;
+    ASSERT_EQ(portable[q].weight, fast[q].weight) << q;
+    ASSERT_EQ(portable[q].velocity, fast[q].velocity) << q;
+  }
+  EXPECT_GT(withFluid, at.size() / 3);
 }
 
 TEST(WhitewaterSolver, SprayFarFromWaterFollowsTheDragFreeParabola) {

@@ -207,6 +207,49 @@ TEST(WhitewaterStage, RunsAreIdenticalAndAKilledRunResumesToTheSameFiles) {
   EXPECT_EQ(checksums(out, frames), first);
 }
 
+TEST(WhitewaterStage, AutomaticLimitsFromAnUnfinishedBakeAreSaidAndMadeAgainAfterIt) {
+  // A run on a bake that is still going (its caches stop at frame 12) says that
+  // its automatic limits come from part of the bake. Once the bake is whole, a
+  // plain run makes the limits again and remakes every frame: the files equal
+  // those of a run on the whole bake, and none of the earlier frames is kept.
+  const fs::path whole = copyOf(towerBake(), "limits_whole");
+  const int frames = frameCount(whole);
+  ASSERT_GT(frames, 20);
+  ASSERT_EQ(test::run({"whitewater", whole.string()}, scratch() / "limits_whole.log"), 0)
+      << test::readLog(scratch() / "limits_whole.log");
+  EXPECT_EQ(test::readLog(scratch() / "limits_whole.log").find("not finished"), std::string::npos);
+
+  const fs::path growing = copyOf(towerBake(), "limits_growing");
+  const fs::path later = scratch() / "limits_later";
+  fs::remove_all(later);
+  fs::create_directories(later);
+  const OutputLayout layout(growing);
+  for (int frame = 13; frame <= frames; ++frame)
+    fs::rename(layout.particles(frame), later / layout.particles(frame).filename());
+  const fs::path partialLog = scratch() / "limits_partial.log";
+  ASSERT_EQ(test::run({"whitewater", growing.string()}, partialLog), 0) << test::readLog(partialLog);
+  const std::string partial = test::readLog(partialLog);
+  EXPECT_NE(partial.find("the bake is not finished (caches up to frame 12 of " + std::to_string(frames) + ")"),
+            std::string::npos)
+      << partial;
+  const auto limitsFile = [&] { return nlohmann::json::parse(std::ifstream(layout.whitewaterDir() / "limits.json")); };
+  EXPECT_EQ(limitsFile()["cached_frames"], nlohmann::json({1, 12, 12}));
+  const std::vector<std::uint64_t> early = checksums(growing, 12);
+
+  for (int frame = 13; frame <= frames; ++frame)
+    fs::rename(later / layout.particles(frame).filename(), layout.particles(frame));
+  const fs::path afterLog = scratch() / "limits_after.log";
+  ASSERT_EQ(test::run({"whitewater", growing.string()}, afterLog), 0) << test::readLog(afterLog);
+  const std::string after = test::readLog(afterLog);
+  EXPECT_EQ(after.find("not finished"), std::string::npos) << after;
+  EXPECT_EQ(after.find("kept"), std::string::npos) << after;
+  EXPECT_EQ(limitsFile()["cached_frames"], nlohmann::json({1, frames, frames}));
+  const std::vector<std::uint64_t> final = checksums(growing, frames);
+  EXPECT_EQ(final, checksums(whole, frames));
+  // The limits did change: frames made with part of the bake's were not right.
+  EXPECT_NE(std::vector<std::uint64_t>(final.begin(), final.begin() + 12), early);
+}
+
 TEST(WhitewaterStage, BadInputIsOneLineAndExitTwo) {
   const fs::path out = copyOf(towerBake(), "bad");
   const auto expectBad = [&](const std::vector<std::string>& args, const std::string& words) {

@@ -7,19 +7,19 @@
 
 namespace cascade::cli {
 
-Splash splashParticles() {
+Splash splashParticles(double spacing) {
   Splash splash;
   std::vector<Vec3r>& points = splash.points;
   std::vector<Vec3r>& velocities = splash.velocities;
   std::mt19937 random(20261121);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  auto jitter = [&] { return (unit(random) - 0.5) * 0.1 * kSplashSpacing; };
+  auto jitter = [&] { return (unit(random) - 0.5) * 0.1 * spacing; };
   Vec3d motion = Vec3d::Zero();  // the velocity of the part being added
   auto add = [&](double x, double y, double z) {
     points.emplace_back(Real(x + jitter()), Real(y + jitter()), Real(z + jitter()));
     velocities.push_back(motion.cast<Real>());
   };
-  const double s = kSplashSpacing;
+  const double s = spacing;
   // Pool: 1.2 x 0.75 m, 15.4 cm deep, with a ring wave.
   const double poolX = 1.2, poolY = 0.75, poolDepth = 0.154;
   const Vec3d columnCenter(0.6, 0.375, 0);

@@ -76,6 +76,12 @@ whitewater::WhitewaterStageOptions stageOptions(const WhitewaterCommandOptions& 
     try {
       if (scene.contains("gravity")) options.gravity = vector3(scene["gravity"]);
       if (scene.contains("output") && scene["output"].contains("fps")) options.fps = scene["output"]["fps"].get<double>();
+      if (scene.contains("output") && scene["output"].contains("fps") && scene["output"].contains("end_time")) {
+        scene::Output output;
+        output.fps = scene["output"]["fps"].get<double>();
+        output.endTime = scene["output"]["end_time"].get<double>();
+        options.bakeLastFrame = output.frameCount();
+      }
       const nlohmann::json& boundaries = scene.value("boundaries", nlohmann::json::object());
       // Removal: the scene's domain, else the tank raised by its own height (spray rises above it).
       if (boundaries.contains("domain") && boundaries["domain"].is_object()) {
