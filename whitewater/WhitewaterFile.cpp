@@ -14,6 +14,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cmath>
 #include <atomic>
 #include <cstring>
 #include <numeric>
@@ -62,6 +63,38 @@ std::array<std::size_t, kDiffuseTypeCount> WhitewaterFrame::counts() const {
   return result;
 }
 
+namespace {
+/// The voxel size of a frame's points: two fluid spacings (P's precision is 2 spacings / 65535).
+double voxelSizeOf(const WhitewaterFrame& frame) { return frame.spacing > 0 ? 2.0 * frame.spacing : 0.01; }
+
+/// One coordinate through OpenVDB 10's point conversion and back: the voxel is
+/// Coord::round of the index position (world times the inverse voxel size, in
+/// double); the offset from the voxel centre is cast to float and stored by
+/// FixedPointCodec<false> (PositionRange: (offset + 0.5) x 65535, truncated,
+/// clamped to [0, 65535]); reading decodes it and maps the index position back.
+float storedCoordinate(float world, double voxelSize, double inverseVoxelSize) {
+  const double index = double(world) * inverseVoxelSize;
+  const double voxel = std::floor(index + 0.5);
+  const float offset = float(index - voxel);
+  const float shifted = offset + 0.5f;
+  const std::uint16_t code = 0.0f > shifted ? std::uint16_t(0)
+                             : 1.0f <= shifted ? std::uint16_t(65535)
+                                               : std::uint16_t(shifted * 65535.0f);
+  const float decoded = float(code) / 65535.0f - 0.5f;
+  return float((double(decoded) + voxel) * voxelSize);
+}
+} // namespace
+
+void roundPositionsAsStored(WhitewaterFrame& frame) {
+  const double voxelSize = voxelSizeOf(frame);
+  const double inverse = 1.0 / voxelSize;
+  std::vector<Vec3r>& positions = frame.particles.position;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, positions.size(), 16384), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i)
+      for (int a = 0; a < 3; ++a) positions[i][a] = storedCoordinate(positions[i][a], voxelSize, inverse);
+  });
+}
+
 void writeWhitewaterVdb(const fs::path& path, const WhitewaterFrame& frame) {
   initializeOpenVdb();
   namespace points = openvdb::points;
@@ -83,8 +116,8 @@ void writeWhitewaterVdb(const fs::path& path, const WhitewaterFrame& frame) {
     }
   });
   points::PointAttributeVector<openvdb::Vec3R> positionWrapper(positions);
-  // Voxels of two fluid spacings, as the particle caches: P's precision is 2 spacings / 65536.
-  const double voxelSize = frame.spacing > 0 ? 2.0 * frame.spacing : 0.01;
+  // Voxels of two fluid spacings, as the particle caches.
+  const double voxelSize = voxelSizeOf(frame);
   const auto transform = openvdb::math::Transform::createLinearTransform(voxelSize);
   const auto indexGrid = openvdb::tools::createPointIndexGrid<openvdb::tools::PointIndexGrid>(positionWrapper, *transform);
   auto grid = points::createPointDataGrid<points::FixedPointCodec<false>, points::PointDataGrid>(*indexGrid, positionWrapper,

@@ -42,6 +42,11 @@ WhitewaterFrame readWhitewaterVdb(const std::filesystem::path& path);
 /// Only the metadata (time, next id, spacing, input hash) and, from the type
 /// attribute, the counts; throws like readWhitewaterVdb.
 WhitewaterFrame readWhitewaterHeader(const std::filesystem::path& path);
+/// Rounds positions as writing and reading a whitewater VDB does (P in 16-bit
+/// fixed point within voxels of 2 spacings): readWhitewaterVdb of a file written
+/// from `frame` holds exactly these positions. So a run can go on from a frame
+/// in memory while its file is written, and still equal a run resumed from it.
+void roundPositionsAsStored(WhitewaterFrame& frame);
 /// Writes the PLY point form, atomically.
 void writeWhitewaterPly(const std::filesystem::path& path, const WhitewaterFrame& frame);
 

@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <climits>
 #include <chrono>
+#include <future>
 #include <map>
 #include <sstream>
 
@@ -228,6 +229,10 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
       break;
     }
 
+  std::future<void> writing;  // the last frame's files, written behind the next frame
+  const auto finishWriting = [&] {
+    if (writing.valid()) writing.get();  // rethrows a failed write
+  };
   FramePotentials framePotentials;
   FluidInterval interval;
   WhitewaterFrame state;  // at frame stateFrame
@@ -275,11 +280,20 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
       frameReport.stats = solver.advance(interval, rates, frame - 1, next.particles, next.nextId);
     }
     next.type = solver.classify(next.particles, cache.position);
-    writeWhitewaterVdb(layout.whitewater(frame), next);
-    // The file is the state: continue from what it holds (a resumed run does the same).
-    state = readWhitewaterVdb(layout.whitewater(frame));
+    // The file is the state: the next frame goes on from the positions as the
+    // file stores them (exactly what reading it gives, as a resumed run does),
+    // while the file is written behind.
+    state = next;
+    roundPositionsAsStored(state);
     stateFrame = frame;
-    if (settings.ply) writeWhitewaterPly(layout.whitewaterPly(frame), state);
+    finishWriting();
+    writing = std::async(std::launch::async, [file = layout.whitewater(frame), plyFile = layout.whitewaterPly(frame),
+                                              ply = settings.ply, written = std::move(next)]() mutable {
+      writeWhitewaterVdb(file, written);
+      if (!ply) return;
+      roundPositionsAsStored(written);  // the PLY holds what the VDB gives back
+      writeWhitewaterPly(plyFile, written);
+    });
     previousCache = std::move(cache);
     previousCacheFrame = frame;
     frameReport.counts = state.counts();
@@ -287,6 +301,7 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
     if (progress) progress(frameReport);
     report.frames.push_back(frameReport);
   }
+  finishWriting();
   return report;
 }
 

@@ -10,9 +10,10 @@
 /// A-B starts from the latest good file before A (one made with the same
 /// inputs: its cascade_input_hash), or from the first frame, and writes every
 /// frame it makes. Frames in the range that are already good are kept unless
-/// forced. Each file is written atomically and then read back as the state
-/// the next frame starts from, so a run killed at any point and started again
-/// writes the same particles as an unbroken one.
+/// forced. Each file is written atomically, behind the next frame, which
+/// starts from exactly what the file holds (roundPositionsAsStored), so a run
+/// killed at any point and started again writes the same particles as an
+/// unbroken one.
 ///
 /// Limits "auto": the clamping ranges come from the potentials of up to 16
 /// frames spread over all the caches (Potentials.h, limitsFromStatistics),
