@@ -111,20 +111,8 @@ __attribute__((target("avx2,popcnt"))) void sampleAvx2(const Places& places, con
 } // namespace
 
 void PlaceVelocities::gather(const search::UniformGridSearch& grid, const std::vector<Vec3r>& velocities) {
-  const std::size_t n = grid.pointCount();
-  const std::uint32_t* order = grid.placeOrder();
   // Padded with zeros: a lane past a range reads a finite velocity at weight 0.
-  x.assign(n + search::kScanPadding, Real(0));
-  y.assign(n + search::kScanPadding, Real(0));
-  z.assign(n + search::kScanPadding, Real(0));
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 8192), [&](const auto& range) {
-    for (std::size_t k = range.begin(); k != range.end(); ++k) {
-      const Vec3r& v = velocities[order[k]];
-      x[k] = v.x();
-      y[k] = v.y();
-      z[k] = v.z();
-    }
-  });
+  search::gatherScanPositions(velocities.data(), grid.placeOrder(), grid.pointCount(), x, y, z, Real(0));
 }
 
 void sampleFluid(const search::UniformGridSearch& grid, const PlaceVelocities* velocities, const Vec3r* positions,

@@ -217,7 +217,7 @@ void OctreeSearch::build(const Vec3r* points, std::size_t count, Real maxSupport
     });
   }
 
-  gatherScanPositions(points, mOrder, count, mX, mY, mZ);
+  gatherScanPositions(points, mOrder.data(), count, mX, mY, mZ);
   mOrder.resize(count + kScanPadding, kNoIndex);  // read (never reported) by the vector scans
   if (count == 0) return;
 

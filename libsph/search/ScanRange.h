@@ -36,11 +36,11 @@ namespace cascade::search {
 constexpr std::size_t kScanPadding = 16;
 
 /// Gathers points[order[k]] into the coordinate arrays x, y, z (k < count),
-/// followed by kScanPadding NaN entries so that vector loads may read past a
-/// range without ever matching.
-inline void gatherScanPositions(const Vec3r* points, const std::vector<std::uint32_t>& order,
-                                std::size_t count, std::vector<Real>& x, std::vector<Real>& y,
-                                std::vector<Real>& z) {
+/// followed by kScanPadding entries of `padding`: NaN for positions, so that
+/// vector loads may read past a range without ever matching.
+inline void gatherScanPositions(const Vec3r* points, const std::uint32_t* order, std::size_t count,
+                                std::vector<Real>& x, std::vector<Real>& y, std::vector<Real>& z,
+                                Real padding = std::numeric_limits<Real>::quiet_NaN()) {
   x.resize(count + kScanPadding);
   y.resize(count + kScanPadding);
   z.resize(count + kScanPadding);
@@ -52,9 +52,9 @@ inline void gatherScanPositions(const Vec3r* points, const std::vector<std::uint
       z[k] = p.z();
     }
   });
-  for (std::size_t k = count; k < count + kScanPadding; ++k)
-    x[k] = y[k] = z[k] = std::numeric_limits<Real>::quiet_NaN();
+  for (std::size_t k = count; k < count + kScanPadding; ++k) x[k] = y[k] = z[k] = padding;
 }
+
 /// A scan may write this many entries past the neighbours it reports.
 constexpr std::size_t kScanOverwrite = 8;
 

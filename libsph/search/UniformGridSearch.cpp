@@ -88,7 +88,7 @@ void UniformGridSearch::build(const Vec3r* points, std::size_t count, Real maxSu
   mHaveFrame = true;
 
   // Positions in curve order, padded so that vector loads may read past a range.
-  gatherScanPositions(points, mOrder, count, mX, mY, mZ);
+  gatherScanPositions(points, mOrder.data(), count, mX, mY, mZ);
   buildCells();
   // Padding read (never reported) by the vector scans.
   mOrder.resize(count + kPad, kNoIndex);
