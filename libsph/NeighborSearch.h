@@ -63,6 +63,18 @@ public:
   virtual void query(const Vec3r* queries, std::size_t count, const Real* supportRadii,
                      bool excludeSelf, NeighborLists& out) const = 0;
 
+  /// Asks the next builds to list neighbours in a canonical order: ascending by the
+  /// cell of a fixed lattice anchored at `anchor` (the same on every call), then by
+  /// `ids` (one per point, valid for the next build), so that a query's list depends
+  /// only on the points within its radius, not on which other points are indexed or
+  /// where they are stored (MPI ranks, DomainPartition.h). ids null: back to the
+  /// method's own order. Returns false if the method cannot (the caller then sorts).
+  virtual bool setCanonicalOrder(const ParticleId* ids, const Vec3r& anchor) {
+    (void)ids;
+    (void)anchor;
+    return false;
+  }
+
   /// Convenience: all pairs within one point set (build + self query).
   void findNeighbors(const Vec3r* points, std::size_t count, Real supportRadius,
                      NeighborLists& out) {

@@ -64,6 +64,20 @@ struct Particles {
     id.push_back(particleId);
   }
 
+  /// Keeps the first n particles.
+  void truncate(std::size_t n) {
+    if (n < size()) resize(n);
+  }
+
+  /// Appends particle i of `other`.
+  void append(const Particles& other, std::size_t i) {
+    position.push_back(other.position[i]);
+    velocity.push_back(other.velocity[i]);
+    density.push_back(other.density[i]);
+    pressure.push_back(other.pressure[i]);
+    id.push_back(other.id[i]);
+  }
+
   /// Applies a permutation: new index k takes the particle at old index order[k].
   void permute(const std::vector<std::size_t>& order);
 

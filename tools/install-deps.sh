@@ -25,6 +25,7 @@ PACKAGES=(
   libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox
   slurm-wlm munge
+  openmpi-bin libopenmpi-dev
 )
 if [ "$with_blender" = 1 ]; then
   PACKAGES+=(blender python3-numpy)

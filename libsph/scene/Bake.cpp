@@ -12,6 +12,7 @@
 #include "libsph/scene/Progress.h"
 #include "libsph/scene/SceneJson.h"
 #include "libsph/scene/SceneSetup.h"
+#include "libsph/solver/DomainPartition.h"
 #include "libsph/solver/Simulation.h"
 
 #include <chrono>
@@ -48,10 +49,9 @@ std::string formatValue(double value) {
   return buffer;
 }
 
-/// One probes.csv row at the simulation's current time.
-std::string sampleProbes(const Scene& scene, const Simulation& simulation) {
+/// One probes.csv row at the simulation's current time, from `particles` (all of them).
+std::string sampleProbes(const Scene& scene, const Simulation& simulation, const Particles& particles) {
   std::string row = formatValue(simulation.time());
-  const Particles& particles = simulation.particles();
   const Real spacing = Real(scene.fluid.spacing);
   const Vec3r gravity(Real(scene.gravity[0]), Real(scene.gravity[1]), Real(scene.gravity[2]));
   // Point probes find their particles through one grid per sample.
@@ -97,8 +97,8 @@ std::string sampleProbes(const Scene& scene, const Simulation& simulation) {
   return row + "\n";
 }
 
-ParticleFrame frameOf(const Simulation& simulation, const Scene& scene, int frame, const std::string& bakeHash) {
-  const Particles& particles = simulation.particles();
+ParticleFrame frameOf(const Simulation& simulation, const Particles& particles, const Scene& scene, int frame,
+                      const std::string& bakeHash) {
   ParticleFrame out;
   out.position = particles.position;
   out.velocity = particles.velocity;
@@ -136,6 +136,13 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
                      std::to_string(first) + ")");
   result.firstFrame = first;
   result.lastFrame = last;
+  DomainPartition* const partition = options.partition;
+  const bool writer = partition == nullptr || partition->rank() == 0;  // rank 0 writes every file
+  // Over ranks: a count summed over all ranks (on every rank).
+  const auto countEverywhere = [&](double local) {
+    if (partition) partition->sumOverRanks(&local, 1);
+    return local;
+  };
   // Refuse, within seconds and before allocating, a bake the machine cannot hold.
   const MemoryEstimate memory = estimateBakeMemory(scene);
   const double available = availableMemory();
@@ -156,7 +163,8 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
   Progress progress(options.log, options.progressTerminal);
 
   // The resolved scene first: a failed bake still says what it ran.
-  const nlohmann::json written = writeResolvedScene(scene, layout.scene(), meshHashes);
+  const nlohmann::json written = writer ? writeResolvedScene(scene, layout.scene(), meshHashes)
+                                        : resolvedScene(scene, layout.scene(), meshHashes);
   // The assets, as OUT/scene.json names them (relative to OUT, with their content hash).
   nlohmann::json assets = nlohmann::json::array();
   for (const nlohmann::json& obstacle : written["boundaries"]["obstacles"])
@@ -176,6 +184,10 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
 
   Simulation simulation(simulationSettings(scene));
   setUpSimulation(scene, simulation, options.log);
+  if (partition) {
+    simulation.setPartition(partition);
+    countEverywhere(0);  // every rank has read the checkpoint's header before rank 0 may remove it
+  }
 
   BakeCheckpoint state;
   state.inputHash = result.inputHash;
@@ -186,7 +198,7 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
     result.resumedAfter = state.frame;
     progress.message("bake: resuming " + scene.name + " after frame " + std::to_string(state.frame) + " (t=" +
                      formatValue(simulation.time()) + " s)");
-  } else {
+  } else if (writer) {
     std::error_code error;
     fs::remove(checkpointFile, error);
     // Stale frames of an earlier bake of another scene.
@@ -208,27 +220,33 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
   std::vector<char> leaving;
   const auto kill = [&]() {
     if (scene.boundaries.kill.empty()) return;
+    std::size_t killed = 0;
     if (flagLeavingParticles(Boundaries{std::nullopt, {}, {}, {}, std::nullopt, scene.boundaries.kill},
                              simulation.particles(), leaving) > 0)
-      state.killed += simulation.removeParticles(leaving);
+      killed = simulation.removeParticles(leaving);
+    state.killed += std::uint64_t(countEverywhere(double(killed)));
   };
   const bool hasProbes = !scene.probes.empty();
   const double probeInterval = 1.0 / scene.output.probeRate;
   const auto sampleDue = [&]() {
     while (hasProbes && double(state.probeSamples) * probeInterval <= simulation.time() + 1e-12) {
-      state.probeRows += sampleProbes(scene, simulation);
+      if (partition) {
+        const Particles all = simulation.gatheredParticles();
+        if (writer) state.probeRows += sampleProbes(scene, simulation, all);
+      } else {
+        state.probeRows += sampleProbes(scene, simulation, simulation.particles());
+      }
       ++state.probeSamples;
     }
   };
 
   if (state.frame == 0) {
     // A fresh start: the solids for the renderer, the first emitted layers, probes at t = 0.
-    TriangleMesh solids = simulation.solidsMesh();
-    writeObj(layout.root / "geometry" / "solids.obj", solids);
+    if (writer) writeObj(layout.root / "geometry" / "solids.obj", simulation.solidsMesh());
     emit();
     simulation.nextTimeStep();  // derives densities and constants for the t = 0 probes
     sampleDue();
-  } else if (!fs::exists(layout.root / "geometry" / "solids.obj")) {
+  } else if (writer && !fs::exists(layout.root / "geometry" / "solids.obj")) {
     writeObj(layout.root / "geometry" / "solids.obj", simulation.solidsMesh());
   }
 
@@ -240,7 +258,7 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
     const std::vector<std::size_t> counts = samples.samplesPerBoundary(simulation.boundaryCount());
     const double gap = double(samples.sampleGap());
     std::ostringstream line;
-    line << "bake: " << simulation.particles().size() << " fluid particles; type I boundary particles (gap "
+    line << "bake: " << std::uint64_t(countEverywhere(double(simulation.particles().size()))) << " fluid particles; type I boundary particles (gap "
          << std::setprecision(3) << gap * 1000 << " mm; count / (area / gap^2)):";
     for (std::size_t b = 0; b < counts.size(); ++b) {
       const double area = surfaceArea(simulation.boundary(b).surfaceMesh());
@@ -254,7 +272,9 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
       progress.message("bake: WCSPH kernels cubic_spline (solver.kernels \"auto\": a rigid body floats)");
   }
   const std::uint64_t stepsBefore = simulation.stepCount();
-  const auto recordBake = [&](bool done, const std::string& error) {
+  // Not collective: `particles` is the count over all ranks.
+  const auto recordBake = [&](bool done, const std::string& error, double particles) {
+    if (!writer) return;
     nlohmann::json record;
     record["done"] = done;
     record["input_hash"] = result.inputHash;
@@ -264,7 +284,7 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
     record["seconds"] = wallBefore + std::chrono::duration<double>(Clock::now() - wallStart).count();
     record["simulated_time"] = simulation.time();
     record["steps"] = simulation.stepCount();
-    record["particles"] = simulation.particles().size();
+    record["particles"] = std::uint64_t(particles);
     record["boundary_particles"] = simulation.boundaryParticleCount();
     record["removed"] = simulation.removedCount() + state.killed;
     record["resumed_after"] = result.resumedAfter;
@@ -290,30 +310,43 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
         emit();
         kill();
         sampleDue();
+        // Over ranks, one reduction: the particle count, and whether any rank was asked to stop.
+        double shared[2] = {double(simulation.particles().size()),
+                            options.stopFlag && *options.stopFlag ? 1.0 : 0.0};
+        if (partition) partition->sumOverRanks(shared, 2);
         progress.update(frame, last, simulation.time(), double(last) / scene.output.fps, simulation.stepCount(),
-                        simulation.particles().size());
-        if (options.stopFlag && *options.stopFlag) {
+                        std::size_t(shared[0]));
+        if (shared[1] > 0) {
           result.interrupted = true;
           break;
         }
       }
       if (result.interrupted) break;
       if (frame >= first) {
-        writeParticleFrame(layout.particles(frame), frameOf(simulation, scene, frame, result.inputHash));
+        Particles gathered;  // over ranks: all ranks' particles on rank 0
+        if (partition) gathered = simulation.gatheredParticles();
+        const Particles& all = partition ? gathered : simulation.particles();
+        if (writer) writeParticleFrame(layout.particles(frame), frameOf(simulation, all, scene, frame, result.inputHash));
         // Moving solids: the solids at this frame for the renderer (geometry/solids.NNNN.obj).
-        if (simulation.hasMovingSolids()) writeObj(layout.solids(frame), simulation.solidsMesh());
+        if (writer && simulation.hasMovingSolids()) writeObj(layout.solids(frame), simulation.solidsMesh());
         ++result.framesWritten;
       }
-      if (hasProbes) writeTextAtomically(layout.probes(), probeHeader(scene) + state.probeRows);
+      if (writer && hasProbes) writeTextAtomically(layout.probes(), probeHeader(scene) + state.probeRows);
       state.frame = frame;
       state.wallSeconds = wallBefore + std::chrono::duration<double>(Clock::now() - wallStart).count();
-      writeCheckpoint(checkpointFile, state, simulation);
+      if (writer) {
+        writeCheckpoint(checkpointFile, state, simulation);
+      } else {
+        std::ostringstream unused;
+        simulation.save(unused);  // the other ranks' part of rank 0's gather
+      }
       result.lastFrame = frame;
     }
   } catch (const InstabilityError& error) {
+    // Every rank stops here together (Simulation agrees on the message).
     progress.message("");
     result.lastFrame = state.frame;
-    recordBake(false, error.what());
+    recordBake(false, error.what(), countEverywhere(double(simulation.particles().size())));
     throw;
   }
 
@@ -321,10 +354,10 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
   result.simulatedTime = simulation.time();
   result.wallSeconds = std::chrono::duration<double>(Clock::now() - wallStart).count();
   result.steps = simulation.stepCount() - stepsBefore;
-  result.particles = simulation.particles().size();
+  result.particles = std::size_t(countEverywhere(double(simulation.particles().size())));
   result.removed = simulation.removedCount() + state.killed;
   result.complete = !result.interrupted && state.frame >= result.frameCount && framesExist(layout, 1, result.frameCount);
-  recordBake(result.complete, result.interrupted ? "interrupted" : "");
+  recordBake(result.complete, result.interrupted ? "interrupted" : "", double(result.particles));
   char summary[256];
   std::snprintf(summary, sizeof summary,
                 "bake: %s frames %d-%d (%d written) t=%.3f s, %llu steps in %.1f s (%.3g simulated s per wall s), "

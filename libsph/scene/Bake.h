@@ -22,6 +22,10 @@
 #include <ostream>
 #include <string>
 
+namespace cascade {
+class DomainPartition;
+}
+
 namespace cascade::scene {
 
 struct BakeOptions {
@@ -34,6 +38,10 @@ struct BakeOptions {
   bool ignoreMemory = false;
   /// Set asynchronously (SIGINT/SIGTERM handler) to stop after the current step.
   const volatile std::sig_atomic_t* stopFlag = nullptr;
+  /// Over MPI ranks (DomainPartition.h): every rank calls bakeScene with its own
+  /// partition; the fluid is split between them and rank 0 writes every file (frames
+  /// and checkpoints hold all ranks' particles, in id order). Null: one process.
+  DomainPartition* partition = nullptr;
 };
 
 struct BakeResult {

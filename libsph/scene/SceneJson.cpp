@@ -1232,6 +1232,12 @@ Scene readResolvedScene(const fs::path& file) {
 }
 
 json writeResolvedScene(const Scene& scene, const fs::path& file, const std::vector<std::string>& meshHashes) {
+  json resolved = resolvedScene(scene, file, meshHashes);
+  writeTextAtomically(file, resolved.dump(2) + "\n");
+  return resolved;
+}
+
+json resolvedScene(const Scene& scene, const fs::path& file, const std::vector<std::string>& meshHashes) {
   json resolved = sceneToJson(scene);
   std::error_code error;
   const fs::path folder = fs::absolute(file, error).parent_path().lexically_normal();
@@ -1242,7 +1248,6 @@ json writeResolvedScene(const Scene& scene, const fs::path& file, const std::vec
     if (!relative.empty()) obstacles[k]["mesh"] = relative.generic_string();
     obstacles[k]["mesh_hash"] = meshHashes.at(k);
   }
-  writeTextAtomically(file, resolved.dump(2) + "\n");
   return resolved;
 }
 

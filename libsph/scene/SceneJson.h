@@ -84,6 +84,9 @@ Scene readResolvedScene(const std::filesystem::path& file);
 /// `meshHashes`: meshContentHashes(scene), which the caller usually has already.
 nlohmann::json writeResolvedScene(const Scene& scene, const std::filesystem::path& file,
                                   const std::vector<std::string>& meshHashes);
+/// What writeResolvedScene() writes to `file`, without writing it.
+nlohmann::json resolvedScene(const Scene& scene, const std::filesystem::path& file,
+                             const std::vector<std::string>& meshHashes);
 
 /// Levenshtein edit distance (for "did you mean" suggestions).
 std::size_t editDistance(const std::string& a, const std::string& b);

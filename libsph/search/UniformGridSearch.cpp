@@ -63,7 +63,7 @@ void UniformGridSearch::computeFrame(const Vec3r* points, std::size_t count, Rea
   for (int a = 0; a < 3; ++a) {
     // The origin snaps to the global lattice of cells so that it rarely changes
     // between builds (the incremental rebuild needs the same cells).
-    mOrigin[a] = bounds.empty() ? 0.0 : cellSize * std::floor(bounds.lo[a] * mInvCellSize);
+    mOrigin[a] = mIds ? mAnchor[a] : bounds.empty() ? 0.0 : cellSize * std::floor(bounds.lo[a] * mInvCellSize);
     if (!std::isfinite(mOrigin[a])) mOrigin[a] = 0;
     mMaxCell[a] = bounds.empty() ? 0 : clampToLattice(latticeFloor((bounds.hi[a] - mOrigin[a]) * mInvCellSize));
   }
@@ -114,7 +114,7 @@ void UniformGridSearch::sortPoints(const Vec3r* points, std::size_t count, bool 
 
   mLastIncremental = false;
   mLastMoved = count;
-  if (mIncremental && sameFrame && mCount == count && mKeys.size() == count && count > 0) {
+  if (mIncremental && !mIds && sameFrame && mCount == count && mKeys.size() == count && count > 0) {
     // Base order: the previous curve order, or the identity when the caller has
     // reordered its points along it since (Particles::permute(zOrder())).
     struct Moved {
@@ -197,11 +197,30 @@ void UniformGridSearch::sortPoints(const Vec3r* points, std::size_t count, bool 
       return;
     }
   }
+  mOrder.resize(count);
+  if (mIds) {
+    // Canonical: the points in id order first, then a stable radix sort by cell key.
+    std::vector<std::uint64_t>& ids = mKeys;
+    ids.resize(count);
+    for (std::size_t i = 0; i < count; ++i) ids[i] = mIds[i];
+    std::iota(mOrder.begin(), mOrder.end(), 0u);
+    radixSortPairs(ids, mOrder, 32, mKeyScratch, mIndexScratch);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 8192), [&](const auto& range) {
+      for (std::size_t k = range.begin(); k != range.end(); ++k) mKeys[k] = pointKey[mOrder[k]];
+    });
+    radixSortPairs(mKeys, mOrder, keyBits, mKeyScratch, mIndexScratch);
+    return;
+  }
   // Full rebuild: radix sort of (key, index) in index order.
   mKeys.assign(pointKey.begin(), pointKey.end());
-  mOrder.resize(count);
   std::iota(mOrder.begin(), mOrder.end(), 0u);
   radixSortPairs(mKeys, mOrder, keyBits, mKeyScratch, mIndexScratch);
+}
+
+bool UniformGridSearch::setCanonicalOrder(const ParticleId* ids, const Vec3r& anchor) {
+  mIds = ids;
+  for (int a = 0; a < 3; ++a) mAnchor[a] = double(anchor[a]);
+  return true;
 }
 
 void UniformGridSearch::buildCells() {

@@ -83,6 +83,12 @@ public:
   /// that later searches (and every solver pass) touch memory in order.
   std::vector<std::size_t> zOrder() const;
 
+  /// Canonical order (NeighborSearch::setCanonicalOrder): the lattice's origin at
+  /// `anchor` instead of snapped to the points' bounds, and the points of a cell by
+  /// id instead of by index (full builds only). The stencil scan emits the places of
+  /// the 27 cells in ascending order, so a list ascends by (cell key, id).
+  bool setCanonicalOrder(const ParticleId* ids, const Vec3r& anchor) override;
+
   /// Allows (default) or forbids the incremental rebuild (for benchmarks).
   void setIncrementalBuild(bool enabled) { mIncremental = enabled; }
   /// Whether the last build() reused the previous order (incremental rebuild).
@@ -134,6 +140,8 @@ private:
   std::vector<HashEntry> mHash;
   std::uint64_t mHashMask = 0;
 
+  const ParticleId* mIds = nullptr;     ///< canonical order: tie-break within a cell
+  double mAnchor[3] = {0, 0, 0};        ///< canonical order: the fixed origin
   bool mIncremental = true;
   bool mLastIncremental = false;
   std::size_t mLastMoved = 0;

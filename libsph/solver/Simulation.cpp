@@ -6,6 +6,7 @@
 #include "libsph/bodies/MovingBoundary.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/BinaryPod.h"
+#include "libsph/solver/DomainPartition.h"
 #include "libsph/search/MortonCode.h"
 
 #include <tbb/blocked_range.h>
@@ -72,6 +73,22 @@ void sampleBoundaries(const TimeStep& timeStep, const SimulationSettings& settin
   const Real r0 = constants.repulsionRadius;
   const Real gap = needs.sampleGap > 0 ? needs.sampleGap : settings.boundary.sampleGap * r0;
   particles.sample(boundaries, gap, std::max(r0, needs.sampleRadius));
+}
+
+/// Each list in order of particle id: the sums over neighbours then do not depend
+/// on where particles are stored, so every rank count gives the same bits.
+void sortNeighborsById(NeighborLists& lists, const std::vector<ParticleId>& id) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, lists.size(), 256), [&](const auto& range) {
+    std::vector<std::uint64_t> keys;
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      std::uint32_t* begin = lists.indices.data() + lists.offsets[i];
+      const std::uint32_t count = lists.count(i);
+      keys.resize(count);
+      for (std::uint32_t k = 0; k < count; ++k) keys[k] = (std::uint64_t(id[begin[k]]) << 32) | begin[k];
+      std::sort(keys.begin(), keys.end());
+      for (std::uint32_t k = 0; k < count; ++k) begin[k] = std::uint32_t(keys[k]);
+    }
+  });
 }
 
 constexpr char kMagic[8] = {'C', 'S', 'C', 'D', 'S', 'I', 'M', '2'};  // 2: moving solids' state
@@ -151,6 +168,7 @@ long Simulation::findBoundary(const std::string& name) const {
 
 ParticleId Simulation::addParticle(const Vec3r& position, const Vec3r& velocity) {
   const ParticleId id = mNextId++;
+  if (mPartition && mStarted && !mPartition->owns(position)) return id;  // its owner adds it
   mParticles.add(position, velocity, id);
   mParticles.density.back() = mSettings.fluid.restDensity;
   mTimeStep->resize(mParticles.size());
@@ -173,8 +191,12 @@ std::size_t Simulation::addFluidBox(const Vec3r& lo, const Vec3r& hi, const Vec3
       }
   mTimeStep->resize(mParticles.size());
   const FluidBoxRecord box{before, mParticles.size() - before};
-  if (mStarted) compressHydrostatically(box);
-  else mPendingBoxes.push_back(box);
+  if (mStarted) {
+    compressHydrostatically(box);
+    if (mPartition) keepOwned();
+  } else {
+    mPendingBoxes.push_back(box);
+  }
   return mParticles.size() - before;
 }
 
@@ -302,6 +324,66 @@ void Simulation::start() {
   mObstacleForce.assign(mBoundaries.size(), Vec3d::Zero());
   mReportedForce.assign(mBoundaries.size(), Vec3d::Zero());
   mObstacleMoment.assign(mBoundaries.size(), Vec3d::Zero());
+  if (mPartition) distribute();
+}
+
+void Simulation::distribute() {
+  // The canonical search lattice's anchor: from the scene alone (the domain box, or the
+  // solids at rest), so that every rank, and a resumed bake, uses the same one.
+  Vec3r anchor = Vec3r::Constant(std::numeric_limits<Real>::max());
+  if (mSettings.domain.enabled) {
+    anchor = mSettings.domain.min;
+  } else {
+    for (const BoundaryPtr& b : mBoundaries) {
+      if (b->moves()) continue;
+      Vec3r blo, bhi;
+      b->bounds(blo, bhi);
+      if ((blo.array() > Real(-1e6)).all()) anchor = anchor.cwiseMin(blo);
+    }
+    for (int a = 0; a < 3; ++a)
+      if (anchor[a] == std::numeric_limits<Real>::max()) anchor[a] = Real(-1000);
+  }
+  mLatticeAnchor = anchor - Vec3r::Constant(4 * mConstants.supportRadius);
+  Vec3r lo = Vec3r::Constant(std::numeric_limits<Real>::max()), hi = -lo;
+  for (const Vec3r& p : mParticles.position) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  for (const BoundaryPtr& b : mBoundaries) {
+    Vec3r blo, bhi;
+    b->bounds(blo, bhi);
+    if ((blo.array() > Real(-1e6)).all() && (bhi.array() < Real(1e6)).all()) lo = lo.cwiseMin(blo), hi = hi.cwiseMax(bhi);
+  }
+  mPartition->start(mParticles, mConstants.supportRadius, lo, hi, mSettings.solver.gravity);
+  keepOwned();
+}
+
+void Simulation::setPartition(DomainPartition* partition) {
+  if (mStarted) throw std::logic_error("Simulation::setPartition: set it before the first step");
+  if (partition && mSettings.solver.type != "wcsph")
+    throw InputError("solver.type: \"" + mSettings.solver.type +
+                     "\" does not run over MPI ranks yet (\"wcsph\" does); run it without mpirun");
+  if (partition)
+    for (const BoundaryPtr& b : mBoundaries)
+      if (const auto* moving = dynamic_cast<const MovingBoundary*>(b.get()); moving && moving->isDynamic())
+        throw InputError("boundaries: the rigid body '" + b->name() +
+                         "' does not run over MPI ranks yet; run the scene without mpirun");
+  mPartition = partition;
+}
+
+void Simulation::keepOwned() {
+  std::vector<char> remove(mParticles.size(), 0);
+  bool any = false;
+  for (std::size_t i = 0; i < mParticles.size(); ++i)
+    if (!mPartition->owns(mParticles.position[i])) {
+      remove[i] = 1;
+      any = true;
+    }
+  if (!any) return;
+  mParticles.removeIf(remove);
+  mTimeStep->removeIf(remove);
+  mPendingBoxes.clear();
+}
+
+Particles Simulation::gatheredParticles() const {
+  return mPartition ? mPartition->gatherToFirst(mParticles) : mParticles;
 }
 
 double Simulation::computeTimeStep() const {
@@ -313,9 +395,10 @@ double Simulation::computeTimeStep() const {
         return m;
       },
       [](Real a, Real b) { return std::max(a, b); });
+  const double speed2 = mPartition ? mPartition->maxOverRanks(double(maxSpeed2)) : double(maxSpeed2);
   const double h = mConstants.supportRadius;
   // A moving solid's fastest point counts as a particle: the fluid it meets soon moves as fast.
-  const double maxSpeed = std::max(std::sqrt(double(maxSpeed2)), maxSolidSpeed());
+  const double maxSpeed = std::max(std::sqrt(speed2), maxSolidSpeed());
   const TimeStepNeeds needs = mTimeStep->needs(mSettings, mConstants);
   const double cfl = needs.maxCflFactor > 0 ? std::min(solver.cflFactor, needs.maxCflFactor) : solver.cflFactor;
   double dt = cfl * h / (double(mConstants.speedOfSound) + maxSpeed);
@@ -377,10 +460,19 @@ double Simulation::step() {
   const std::size_t interval = static_cast<std::size_t>(mSettings.solver.reorderInterval);
   if (interval > 0 && mStepCount % interval == 0) reorder();
   const Real h = mConstants.supportRadius;
+  const std::size_t owned = mParticles.size();
+  if (mPartition) {
+    mPartition->addGhosts(mParticles, h);  // [owned, size): neighbours from other ranks
+    mTimeStep->resize(mParticles.size());
+  }
   if (mParticles.empty()) {
     mNeighbors.clear();
   } else {
+    // Over ranks the lists go in a canonical order (by cell of a lattice fixed by the
+    // scene, then by id), from the search itself where it can, else sorted by id.
+    const bool canonical = mPartition && mSearch->setCanonicalOrder(mParticles.id.data(), mLatticeAnchor);
     mSearch->findNeighbors(mParticles.position.data(), mParticles.size(), h, mNeighbors);
+    if (mPartition && !canonical) sortNeighborsById(mNeighbors, mParticles.id);
   }
   mTimings.neighbors += millisecondsSince(begin);
 
@@ -400,11 +492,35 @@ double Simulation::step() {
   mLayerStart.resize(layer.size());
   for (std::size_t k = 0; k < layer.size(); ++k) mLayerStart[k] = mParticles.position[layer[k]];
   StepContext context{mParticles, mNeighbors, mBoundaryParticles, mSettings, mConstants,
-                      mAcceleration, mObstacleForce, mReportedForce, mObstacleMoment, mTimings, mTime, 0};
+                      mAcceleration, mObstacleForce, mReportedForce, mObstacleMoment, mTimings, mTime, 0,
+                      mPartition, owned};
   mTimeStep->advance(context, static_cast<Real>(dt));
+  if (mPartition) {
+    // Every rank's share of the forces on the solids, summed in rank order.
+    const std::size_t b = mBoundaries.size();
+    std::vector<double> sums(9 * b);
+    for (std::size_t k = 0; k < b; ++k)
+      for (int a = 0; a < 3; ++a) {
+        sums[9 * k + a] = mObstacleForce[k][a];
+        sums[9 * k + 3 + a] = mReportedForce[k][a];
+        sums[9 * k + 6 + a] = mObstacleMoment[k][a];
+      }
+    mPartition->sumOverRanks(sums.data(), sums.size());
+    for (std::size_t k = 0; k < b; ++k)
+      for (int a = 0; a < 3; ++a) {
+        mObstacleForce[k][a] = sums[9 * k + a];
+        mReportedForce[k][a] = sums[9 * k + 3 + a];
+        mObstacleMoment[k][a] = sums[9 * k + 6 + a];
+      }
+    context.maxAcceleration = Real(mPartition->maxOverRanks(double(context.maxAcceleration)));
+  }
   begin = Clock::now();
   moveSolids(dt);
-  keepOutOfSolids(dt);
+  keepOutOfSolids(dt, owned);
+  if (mPartition) {
+    mParticles.truncate(owned);  // the ghosts' owners moved them
+    mTimeStep->resize(owned);
+  }
   mTimings.boundary += millisecondsSince(begin);
   mLastMaxAcceleration = context.maxAcceleration;
   mTime += dt;
@@ -414,6 +530,10 @@ double Simulation::step() {
   begin = Clock::now();
   removeOutside();
   checkStability();
+  if (mPartition) {
+    mPartition->migrate(mParticles);
+    mTimeStep->resize(mParticles.size());
+  }
   mTimings.integrate += millisecondsSince(begin);
   return dt;
 }
@@ -446,7 +566,7 @@ std::size_t Simulation::removeParticles(const std::vector<char>& remove) {
 }
 
 void Simulation::removeOutside() {
-  if (!mSettings.domain.enabled || mParticles.empty()) return;
+  if (!mSettings.domain.enabled) return;
   const std::size_t n = mParticles.size();
   std::vector<char> remove(n, 0);
   const Vec3r lo = mSettings.domain.min, hi = mSettings.domain.max;
@@ -463,8 +583,11 @@ void Simulation::removeOutside() {
         return count;
       },
       std::plus<std::size_t>());
+  double removedEverywhere = double(outside);
+  if (mPartition) mPartition->sumOverRanks(&removedEverywhere, 1);
+  mRemovedCount += std::uint64_t(removedEverywhere);
   if (outside == 0) return;
-  mRemovedCount += mParticles.removeIf(remove);
+  mParticles.removeIf(remove);
   mTimeStep->removeIf(remove);
 }
 
@@ -475,9 +598,9 @@ void Simulation::removeOutside() {
 /// out (a quarter spacing off the face where it entered, or where the step started)
 /// and loses the part of its velocity into the solid: only energy is taken, and no
 /// particle stays in a solid.
-void Simulation::keepOutOfSolids(double dt) {
+void Simulation::keepOutOfSolids(double dt, std::size_t owned) {
   const std::vector<std::uint32_t>& layer = mBoundaryParticles.layer();
-  if (layer.empty() || mBoundaries.empty()) return;
+  if (mBoundaries.empty()) return;
   const Real clearance = Real(0.25) * mSettings.fluid.spacing;
   // The velocity the guard takes is the wall's push: a force on it (-m dv / dt), summed
   // in fixed chunks in order (deterministic); a rigid body gets the impulse at once (it
@@ -494,6 +617,7 @@ void Simulation::keepOutOfSolids(double dt) {
     const std::size_t end = std::min(layer.size(), (chunk + 1) * kChunk);
     for (std::size_t k = chunk * kChunk; k < end; ++k) {
       const std::uint32_t i = layer[k];
+      if (i >= owned) continue;  // a ghost
       const Vec3r from = mLayerStart[k], to = mParticles.position[i];
       Vec3r exit, normal;
       for (std::size_t b = 0; b < boundaries; ++b) {
@@ -510,6 +634,26 @@ void Simulation::keepOutOfSolids(double dt) {
       }
     }
   });
+  if (mPartition) {
+    // Over ranks (no rigid bodies): each rank's impulses in chunk order, then summed in rank order.
+    std::vector<double> sums(6 * boundaries, 0.0);
+    for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+      mKeptOutCount += chunkCounts[chunk];
+      for (std::size_t b = 0; b < boundaries; ++b)
+        for (int a = 0; a < 3; ++a) {
+          sums[6 * b + a] += chunkSums[chunk * 2 * boundaries + b][a];
+          sums[6 * b + 3 + a] += chunkSums[chunk * 2 * boundaries + boundaries + b][a];
+        }
+    }
+    mPartition->sumOverRanks(sums.data(), sums.size());
+    for (std::size_t b = 0; b < boundaries; ++b) {
+      const Vec3d j(sums[6 * b], sums[6 * b + 1], sums[6 * b + 2]), l(sums[6 * b + 3], sums[6 * b + 4], sums[6 * b + 5]);
+      mObstacleForce[b] += j / dt;
+      mReportedForce[b] += j / dt;
+      mObstacleMoment[b] += l / dt;
+    }
+    return;
+  }
   for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
     mKeptOutCount += chunkCounts[chunk];
     if (chunkCounts[chunk] == 0) continue;
@@ -527,6 +671,12 @@ void Simulation::keepOutOfSolids(double dt) {
 }
 
 void Simulation::checkStability() const {
+  std::string message = stabilityMessage();
+  if (mPartition) message = mPartition->firstMessage(message);
+  if (!message.empty()) throw InstabilityError(message);
+}
+
+std::string Simulation::stabilityMessage() const {
   const Real limit = mSettings.solver.instabilitySpeedFactor * mConstants.expectedSpeed;
   const Real limit2 = limit * limit;
   const std::size_t n = mParticles.size();
@@ -542,7 +692,7 @@ void Simulation::checkStability() const {
         return first;
       },
       [](std::size_t a, std::size_t b) { return std::min(a, b); });
-  if (bad == n) return;
+  if (bad == n) return "";
   const Vec3r& p = mParticles.position[bad];
   const Vec3r& v = mParticles.velocity[bad];
   std::ostringstream message;
@@ -553,7 +703,7 @@ void Simulation::checkStability() const {
   else
     message << "speed " << v.norm() << " m/s exceeds " << limit << " m/s (" << mSettings.solver.instabilitySpeedFactor
             << " x the scene's expected " << mConstants.expectedSpeed << " m/s)";
-  throw InstabilityError(message.str());
+  return message.str();
 }
 
 Vec3d Simulation::obstacleForce(std::size_t index) const {
@@ -650,6 +800,10 @@ TriangleMesh Simulation::solidsMesh() const {
 }
 
 void Simulation::save(std::ostream& out) const {
+  // Over ranks: every rank's particles on rank 0, which writes them.
+  const Particles gathered = mPartition ? mPartition->gatherToFirst(mParticles) : Particles();
+  if (mPartition && mPartition->rank() != 0) return;
+  const Particles& particles = mPartition ? gathered : mParticles;
   out.write(kMagic, sizeof(kMagic));
   writePod(out, static_cast<std::uint32_t>(sizeof(Real)));
   writePod(out, static_cast<std::uint64_t>(mBoundaries.size()));
@@ -662,13 +816,13 @@ void Simulation::save(std::ostream& out) const {
   writePod(out, mNextId);
   writePod(out, mConstants);
   writePod(out, mParticles.mass);
-  const std::uint64_t n = mParticles.size();
+  const std::uint64_t n = particles.size();
   writePod(out, n);
-  writeArray(out, mParticles.position);
-  writeArray(out, mParticles.velocity);
-  writeArray(out, mParticles.density);
-  writeArray(out, mParticles.pressure);
-  writeArray(out, mParticles.id);
+  writeArray(out, particles.position);
+  writeArray(out, particles.velocity);
+  writeArray(out, particles.density);
+  writeArray(out, particles.pressure);
+  writeArray(out, particles.id);
   writeArray(out, mObstacleForce);
   writeArray(out, mReportedForce);
   writeArray(out, mObstacleMoment);
@@ -724,6 +878,7 @@ void Simulation::restore(std::istream& in) {
   mTimeStep->restore(in);
   if (mStarted) {
     sampleBoundaries(*mTimeStep, mSettings, mConstants, mBoundaries, mBoundaryParticles);
+    if (mPartition) distribute();  // every rank read every particle: each keeps its share
   }
 }
 

@@ -34,6 +34,7 @@
 
 namespace cascade {
 
+class DomainPartition;
 class MovingBoundary;
 
 class Simulation {
@@ -62,6 +63,21 @@ public:
   /// boundary, the lattice is compressed along gravity to the hydrostatic
   /// density when the simulation starts (the stiffness is known then).
   std::size_t addFluidBox(const Vec3r& lo, const Vec3r& hi, const Vec3r& velocity = Vec3r::Zero());
+
+  // --- over MPI ranks ---
+  /// Runs this simulation as one rank of a spatial decomposition (DomainPartition.h;
+  /// WCSPH without rigid bodies). Set it before the first step, on every rank set up
+  /// the same way with the whole scene: the start (or a restore) keeps this rank's
+  /// share, particles added later are kept by their owner only, and each step adds
+  /// and drops the ghosts, takes the same time step on every rank and migrates
+  /// particles. Neighbour lists are sorted by particle id, so that the sums, and so
+  /// the particles, are bit-identical whatever the rank count. Throws InputError
+  /// for a solver or scene it cannot split. Not owned; must outlive the simulation.
+  void setPartition(DomainPartition* partition);
+  DomainPartition* partition() const { return mPartition; }
+  /// The particles of every rank, sorted by id, on rank 0 (collective; empty on the
+  /// other ranks). Without a partition, a copy of particles().
+  Particles gatheredParticles() const;
 
   // --- running ---
   /// One adaptive step; returns dt (s).
@@ -132,7 +148,9 @@ public:
   // --- checkpoints ---
   /// Writes the whole dynamic state (time, step count, ids, derived constants,
   /// particle arrays, strategy state) in binary. Settings and boundaries are
-  /// not written: restore into a Simulation set up the same way.
+  /// not written: restore into a Simulation set up the same way. Over MPI ranks it
+  /// is collective: rank 0 writes every rank's particles (sorted by id), the other
+  /// ranks write nothing; a restore on any number of ranks keeps each one's share.
   void save(std::ostream& out) const;
   /// Restores what save() wrote; throws InputError("checkpoint: ...") if the
   /// data is truncated or from another set-up.
@@ -155,12 +173,19 @@ private:
   std::vector<FluidBoxRecord> mPendingBoxes;
   void reorder();
   void removeOutside();
-  void keepOutOfSolids(double dt);
+  /// The guard for the owned particles [0, owned) of the step's boundary layer.
+  void keepOutOfSolids(double dt, std::size_t owned);
   /// Moves the moving solids over the step just taken (dt, ending at mTime + dt).
   void moveSolids(double dt);
   /// Fastest surface speed of the moving solids now.
   double maxSolidSpeed() const;
   void checkStability() const;
+  /// The instability message of this rank's first offending particle, or "".
+  std::string stabilityMessage() const;
+  /// Over MPI ranks: removes the particles this rank does not own.
+  void keepOwned();
+  /// Over MPI ranks: the regions from all particles (every rank holds them all), then keepOwned().
+  void distribute();
   double computeTimeStep() const;
 
   SimulationSettings mSettings;
@@ -180,6 +205,8 @@ private:
   std::vector<Vec3r> mLayerStart;  // positions of the boundary layer at the step's start
   ParticleId mNextId = 0;
   bool mStarted = false;
+  DomainPartition* mPartition = nullptr;
+  Vec3r mLatticeAnchor = Vec3r::Zero();  ///< over ranks: the canonical search lattice's origin
 };
 
 } // namespace cascade

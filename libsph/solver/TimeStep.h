@@ -10,6 +10,7 @@
 #include "libsph/Particles.h"
 #include "libsph/solver/SolverSettings.h"
 
+#include <algorithm>
 #include <iosfwd>
 #include <limits>
 #include <memory>
@@ -19,6 +20,7 @@
 namespace cascade {
 
 class BoundaryParticles;
+class DomainPartition;
 
 /// Wall-clock milliseconds spent per phase, summed over steps.
 struct StepTimings {
@@ -62,7 +64,13 @@ struct StepContext {
   std::vector<Vec3d>& obstacleMoment;
   StepTimings& timings;
   double time = 0;                       ///< s, at the start of the step
-  Real maxAcceleration = 0;              ///< out: largest |a| of the step (force limit of dt)
+  Real maxAcceleration = 0;              ///< out: largest |a| of the owned particles (force limit of dt)
+  /// Over MPI ranks: the decomposition, and the count of owned particles; the ghosts
+  /// after them are neighbours only (DomainPartition.h). Null: one process owns all.
+  DomainPartition* partition = nullptr;
+  std::size_t owned = std::numeric_limits<std::size_t>::max();
+  /// The particles whose forces and motion this step computes: [0, ownedCount()).
+  std::size_t ownedCount() const { return std::min(owned, particles.size()); }
 };
 
 /// What a strategy needs the Simulation to prepare each step (the defaults

@@ -2,6 +2,7 @@
 
 #include "libsph/Kernels.h"
 #include "libsph/boundary/BoundaryParticles.h"
+#include "libsph/solver/DomainPartition.h"
 #include "libsph/solver/EquationOfState.h"
 
 #include <tbb/blocked_range.h>
@@ -626,6 +627,20 @@ void computePressure(StepContext& c, Workspace& workspace) {
       records[i].density = particles.density[i];
     }
   });
+  refreshGhostPressure(c, workspace);
+}
+
+void refreshGhostPressure(StepContext& c, Workspace& workspace) {
+  if (c.partition == nullptr) return;
+  Particles& particles = c.particles;
+  const std::size_t owned = c.ownedCount();
+  c.partition->refreshGhosts(particles.density.data(), owned);
+  c.partition->refreshGhosts(particles.pressure.data(), owned);
+  PairInput* records = workspace.particles.data();
+  for (std::size_t i = owned; i < particles.size(); ++i) {
+    records[i].pressure = particles.pressure[i];
+    records[i].density = particles.density[i];
+  }
 }
 
 void computeDensityRate(StepContext& c, Workspace& workspace) {
@@ -704,10 +719,9 @@ void computeFluidAcceleration(StepContext& c, const Workspace& workspace) {
   const NeighborLists& nl = c.neighbors;
   const Vec3r gravity = c.settings.solver.gravity;
   std::vector<Vec3r>& acceleration = c.acceleration;
-  const std::size_t n = particles.size();
-  acceleration.resize(n);
+  acceleration.resize(particles.size());
   const PairInput* records = workspace.particles.data();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const auto& range) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, c.ownedCount(), 512), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       const PairInput& p = records[i];
       const Real invRhoi = Real(1) / p.density;
@@ -760,8 +774,10 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
       moment[owner] += at.cast<double>().cross(f);
     };
     const std::size_t end = std::min(layer.size(), (chunk + 1) * kChunk);
+    const std::size_t owned = c.ownedCount();
     for (std::size_t kk = chunk * kChunk; kk < end; ++kk) {
       const std::uint32_t i = layer[kk];
+      if (i >= owned) continue;  // a ghost: its owner moves it
       const Vec3r xi = particles.position[i], vi = particles.velocity[i];
       const Real pi = particles.pressure[i], rhoi = particles.density[i];
       Vec3r total = Vec3r::Zero();
@@ -896,7 +912,7 @@ Real integrateSymplecticEuler(StepContext& c, Real dt) {
   Particles& particles = c.particles;
   const std::vector<Vec3r>& acceleration = c.acceleration;
   const Real maxA2 = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, particles.size(), 4096), Real(0),
+      tbb::blocked_range<std::size_t>(0, c.ownedCount(), 4096), Real(0),
       [&](const auto& range, Real m) {
         for (std::size_t i = range.begin(); i != range.end(); ++i) {
           const Vec3r& a = acceleration[i];
@@ -954,6 +970,8 @@ void TimeStepWCSPH::advance(StepContext& c, Real dt) {
     // The density moves with the new velocity, as the positions do (symplectic Euler:
     // with the old velocity the acoustic modes grow every step).
     start = Clock::now();
+    // The ghosts' new velocities from their owners (the density rate reads them).
+    if (c.partition) c.partition->refreshGhosts(c.particles.velocity.data(), c.ownedCount());
     wcsph::integrateContinuityDensity(c, mWorkspace, dt);
     c.timings.density += millisecondsSince(start);
   }

@@ -103,7 +103,10 @@ void addMirrorDensity(StepContext& context, const Workspace& workspace);
 /// SEED (10) or Tait for every particle; fills the pressures and densities of
 /// workspace.particles.
 void computePressure(StepContext& context, Workspace& workspace);
-/// Fluid-fluid accelerations: SEED (5), (6), artificial viscosity, gravity.
+/// Over MPI ranks (context.partition): the ghosts' densities and pressures from their
+/// owners, into the particles and workspace.particles (computePressure calls it).
+void refreshGhostPressure(StepContext& context, Workspace& workspace);
+/// Fluid-fluid accelerations of the owned particles: SEED (5), (6), artificial viscosity, gravity.
 void computeFluidAcceleration(StepContext& context, const Workspace& workspace);
 /// Boundary layer: mirror pressure / viscosity and SEED (11) repulsion; fills
 /// context.obstacleForce (N, force on each boundary by the fluid). With

@@ -4,7 +4,10 @@
 
 #include "BenchTable.h"
 
+#include "libsph/solver/Simulation.h"
+
 #include <string>
+#include <vector>
 
 namespace cascade::cli {
 
@@ -18,6 +21,14 @@ BenchPaths& benchPaths();
 
 BenchTable benchNeighbors();  ///< bench_neighbors.cpp
 BenchTable benchStep();       ///< bench_step.cpp
+/// bench step's dam break (bench_step.cpp): the settings, and a column of about `target`
+/// particles against the back wall of a tank four columns long.
+SimulationSettings benchDamBreakSettings();
+void addBenchDamBreak(Simulation& simulation, std::size_t target);
+/// bench_step_ranks.cpp: threads against MPI ranks (N in `ranks`) at about `target` particles.
+BenchTable benchStepRanks(const std::vector<int>& ranks, long target);
+/// bench_step_ranks.cpp: one MPI run of benchStepRanks (under mpirun; rank 0 prints one line).
+void benchStepMpiChild(long target);
 BenchTable benchAccuracy();   ///< bench_accuracy.cpp
 BenchTable benchSurface();    ///< bench_surface.cpp
 BenchTable benchRender();     ///< bench_render.cpp

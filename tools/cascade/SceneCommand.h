@@ -22,6 +22,7 @@ const volatile std::sig_atomic_t* stopFlag();
 /// Bakes with progress on stderr; throws if interrupted (exit 1, checkpoint kept).
 /// `ignoreMemory`: bake even when the memory estimate exceeds what the machine has.
 scene::BakeResult runBake(const scene::Scene& scene, const std::filesystem::path& outDir,
-                          const std::string& framesText, bool restart, bool ignoreMemory = false);
+                          const std::string& framesText, bool restart, bool ignoreMemory = false,
+                          const std::string& rankCuts = "");
 
 } // namespace cascade::cli

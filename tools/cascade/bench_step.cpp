@@ -42,21 +42,29 @@ struct Case {
 
 } // namespace
 
+SimulationSettings benchDamBreakSettings() {
+  SimulationSettings settings;
+  settings.fluid.spacing = Real(0.01);
+  return settings;
+}
+
+void addBenchDamBreak(Simulation& sim, std::size_t target) {
+  // Column m x m/2 x 2m spacings: m^3 particles.
+  const Real spacing = sim.settings().fluid.spacing;
+  const int m = int(std::lround(std::cbrt(double(target))));
+  const Real width = spacing * Real(m), depth = spacing * Real(m / 2), height = 2 * width;
+  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(4 * width, depth, Real(1.25) * height)));
+  sim.addFluidBox(Vec3r(0, 0, 0), Vec3r(width, depth, height));
+}
+
 BenchTable benchStep() {
   BenchTable table("step", {"solver", "n_fluid", "n_boundary", "boundary_samples", "samples_per_area", "ms_per_step",
                             "neighbors_ms", "density_ms", "forces_ms", "boundary_ms", "integrate_ms",
                             "particle_steps_per_s"});
   const Case cases[] = {{10000, 10, 200}, {100000, 5, 40}, {1000000, 3, 8}};
-  const Real spacing = Real(0.01);
   for (const Case& c : cases) {
-    // Column m x m/2 x 2m spacings: m^3 particles.
-    const int m = int(std::lround(std::cbrt(double(c.target))));
-    const Real width = spacing * Real(m), depth = spacing * Real(m / 2), height = 2 * width;
-    SimulationSettings settings;
-    settings.fluid.spacing = spacing;
-    Simulation sim(settings);
-    sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(4 * width, depth, Real(1.25) * height)));
-    sim.addFluidBox(Vec3r(0, 0, 0), Vec3r(width, depth, height));
+    Simulation sim(benchDamBreakSettings());
+    addBenchDamBreak(sim, c.target);
     const std::size_t fluid = sim.particles().size();
     std::cerr << "bench step: " << fluid << " fluid particles, warming up..." << std::endl;
     for (int k = 0; k < c.warmup; ++k) sim.step();

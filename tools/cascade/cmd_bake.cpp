@@ -2,6 +2,7 @@
 #include "Commands.h"
 #include "SceneCommand.h"
 
+#include "distributed/MpiRuntime.h"
 #include "libsph/Errors.h"
 #include "libsph/scene/Bake.h"
 #include "libsph/scene/SceneJson.h"
@@ -29,16 +30,23 @@ std::filesystem::path defaultOutDir(const scene::Scene& scene, const std::string
 }
 
 scene::BakeResult runBake(const scene::Scene& scene, const std::filesystem::path& outDir,
-                          const std::string& framesText, bool restart, bool ignoreMemory) {
+                          const std::string& framesText, bool restart, bool ignoreMemory, const std::string& rankCuts) {
   scene::BakeOptions options;
   options.outDir = outDir;
   options.ignoreMemory = ignoreMemory;
   if (!framesText.empty()) options.frames = parseFrameRange(framesText);
   options.resume = !restart;
-  options.log = &std::cerr;
+  // Under mpirun: every rank bakes its share of the fluid; rank 0 logs and writes.
+  const distributed::MpiSession* session = distributed::currentSession();
+  const bool firstRank = session == nullptr || session->rank() == 0;
+  options.log = firstRank ? &std::cerr : nullptr;
+  const std::unique_ptr<DomainPartition> partition = distributed::makeWorldPartition(&std::cerr, rankCuts);
+  if (!rankCuts.empty() && !partition) throw InputError("--rank-cuts: only under mpirun");
+  options.partition = partition.get();
   options.stopFlag = stopFlag();
   installStopHandlers();
   scene::BakeResult result = scene::bakeScene(scene, options);
+  if (partition && firstRank) std::cerr << distributed::partitionSummary(*partition) << '\n';
   if (result.interrupted)
     throw std::runtime_error("bake interrupted after frame " + std::to_string(result.lastFrame) +
                              "; run the same command again to continue");
@@ -48,7 +56,7 @@ scene::BakeResult runBake(const scene::Scene& scene, const std::filesystem::path
 void addBakeCommand(CLI::App& app) {
   CLI::App* command = app.add_subcommand("bake", "Simulate a scene into OUT/particles (resumable)");
   struct Args {
-    std::string scene, out, frames;
+    std::string scene, out, frames, rankCuts;
     std::vector<std::string> sets;
     bool restart = false, ignoreMemory = false;
   };
@@ -60,9 +68,11 @@ void addBakeCommand(CLI::App& app) {
   command->add_flag("--restart", args->restart, "Ignore a checkpoint and bake from the start");
   command->add_flag("--ignore-memory", args->ignoreMemory,
                     "Bake even if the memory estimate exceeds what this machine has available");
+  command->add_option("--rank-cuts", args->rankCuts,
+                      "Under mpirun: slab cuts AXIS=C1,C2,... in metres, kept for the whole bake (default: equal shares, rebalanced)");
   command->callback([args] {
     const scene::Scene scene = scene::loadScene(args->scene, args->sets);
-    runBake(scene, defaultOutDir(scene, args->out), args->frames, args->restart, args->ignoreMemory);
+    runBake(scene, defaultOutDir(scene, args->out), args->frames, args->restart, args->ignoreMemory, args->rankCuts);
   });
 }
 
