@@ -116,7 +116,8 @@ void MpiSlabPartition::logShares(const char* when, const std::vector<std::uint64
 }
 
 void MpiSlabPartition::exchange(const std::vector<std::vector<Record>>& outgoing, std::vector<Record>& received,
-                                std::vector<int>* receivedCounts) {
+                                std::vector<int>* receivedCounts, const std::vector<std::vector<Real>>* outgoingState,
+                                std::vector<Real>* receivedState, std::size_t width) {
   MPI_Datatype type;
   MPI_Type_contiguous(int(sizeof(Record)), MPI_BYTE, &type);
   MPI_Type_commit(&type);
@@ -135,6 +136,19 @@ void MpiSlabPartition::exchange(const std::vector<std::vector<Record>>& outgoing
   MPI_Alltoallv(send.empty() ? noRecord : send.data(), sendCounts.data(), sendOffsets.data(), type,
                 received.empty() ? noRecord : received.data(), recvCounts.data(), recvOffsets.data(), type, mComm);
   MPI_Type_free(&type);
+  if (width > 0 && outgoingState && receivedState) {
+    // The state: the same counts, `width` Reals each.
+    MPI_Datatype stateType;
+    MPI_Type_contiguous(int(width * sizeof(Real)), MPI_BYTE, &stateType);
+    MPI_Type_commit(&stateType);
+    std::vector<Real> sendState;
+    for (int r = 0; r < mSize; ++r)
+      sendState.insert(sendState.end(), (*outgoingState)[std::size_t(r)].begin(), (*outgoingState)[std::size_t(r)].end());
+    receivedState->resize(std::size_t(total) * width);
+    MPI_Alltoallv(sendState.data(), sendCounts.data(), sendOffsets.data(), stateType, receivedState->data(),
+                  recvCounts.data(), recvOffsets.data(), stateType, mComm);
+    MPI_Type_free(&stateType);
+  }
   if (receivedCounts) *receivedCounts = recvCounts;
 }
 
@@ -155,7 +169,8 @@ void MpiSlabPartition::rebalance(const Particles& particles) {
   ++mRebalances;
 }
 
-void MpiSlabPartition::migrate(Particles& particles) {
+void MpiSlabPartition::migrate(Particles& particles, std::vector<Real>* state, std::size_t width) {
+  if (state == nullptr) width = 0;
   Timed timed{mCommunicationSeconds};
   // The shares the current cuts would give once the particles have moved.
   const int axis = mSlabs.axis;
@@ -166,6 +181,7 @@ void MpiSlabPartition::migrate(Particles& particles) {
   if (rebalancing) rebalance(particles);
 
   std::vector<std::vector<Record>> outgoing(static_cast<std::size_t>(mSize));
+  std::vector<std::vector<Real>> outgoingState(static_cast<std::size_t>(mSize));
   std::vector<char> leaving(particles.size(), 0);
   std::uint64_t sent = 0;
   for (std::size_t i = 0; i < particles.size(); ++i) {
@@ -173,12 +189,25 @@ void MpiSlabPartition::migrate(Particles& particles) {
     if (owner == mRank) continue;
     outgoing[std::size_t(owner)].push_back(
         {particles.position[i], particles.velocity[i], particles.density[i], particles.pressure[i], particles.id[i]});
+    if (width > 0)
+      outgoingState[std::size_t(owner)].insert(outgoingState[std::size_t(owner)].end(), state->begin() + long(i * width),
+                                               state->begin() + long((i + 1) * width));
     leaving[i] = 1;
     ++sent;
   }
   std::vector<Record> received;
-  exchange(outgoing, received, nullptr);
-  if (sent > 0) particles.removeIf(leaving);
+  std::vector<Real> receivedState;
+  exchange(outgoing, received, nullptr, &outgoingState, &receivedState, width);
+  if (sent > 0) {
+    particles.removeIf(leaving);
+    if (width > 0) {
+      std::size_t out = 0;
+      for (std::size_t i = 0; i < leaving.size(); ++i)
+        if (!leaving[i]) std::copy_n(state->begin() + long(i * width), width, state->begin() + long(out++ * width));
+      state->resize(out * width);
+    }
+  }
+  if (width > 0) state->insert(state->end(), receivedState.begin(), receivedState.end());
   particles.reserve(particles.size() + received.size());
   for (const Record& r : received) {
     particles.add(r.position, r.velocity, r.id);
@@ -278,7 +307,9 @@ std::string MpiSlabPartition::firstMessage(const std::string& local) {
   return message;
 }
 
-Particles MpiSlabPartition::gatherToFirst(const Particles& owned) {
+Particles MpiSlabPartition::gatherToFirst(const Particles& owned, const std::vector<Real>* state, std::size_t width,
+                                          std::vector<Real>* gatheredState) {
+  if (state == nullptr || gatheredState == nullptr) width = 0;
   Timed timed{mCommunicationSeconds};
   MPI_Datatype type;
   MPI_Type_contiguous(int(sizeof(Record)), MPI_BYTE, &type);
@@ -295,15 +326,30 @@ Particles MpiSlabPartition::gatherToFirst(const Particles& owned) {
   MPI_Gatherv(send.empty() ? noRecord : send.data(), count, type, all.empty() ? noRecord : all.data(), counts.data(),
               offsets.data(), type, 0, mComm);
   MPI_Type_free(&type);
+  std::vector<Real> allState;
+  if (width > 0) {
+    MPI_Datatype stateType;
+    MPI_Type_contiguous(int(width * sizeof(Real)), MPI_BYTE, &stateType);
+    MPI_Type_commit(&stateType);
+    allState.resize(all.size() * width);
+    MPI_Gatherv(state->data(), count, stateType, allState.data(), counts.data(), offsets.data(), stateType, 0, mComm);
+    MPI_Type_free(&stateType);
+  }
   Particles out;
   out.mass = owned.mass;
   if (mRank != 0) return out;
-  std::sort(all.begin(), all.end(), [](const Record& a, const Record& b) { return a.id < b.id; });
+  std::vector<std::uint32_t> order(all.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return all[a].id < all[b].id; });
   out.reserve(all.size());
-  for (const Record& r : all) {
+  if (width > 0) gatheredState->resize(all.size() * width);
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const Record& r = all[order[k]];
     out.add(r.position, r.velocity, r.id);
     out.density.back() = r.density;
     out.pressure.back() = r.pressure;
+    if (width > 0)
+      std::copy_n(allState.begin() + long(order[k] * width), width, gatheredState->begin() + long(k * width));
   }
   return out;
 }

@@ -37,14 +37,15 @@ public:
   bool owns(const Vec3r& position) const override;
   void start(const Particles& all, Real supportRadius, const Vec3r& lo, const Vec3r& hi,
              const Vec3r& gravity) override;
-  void migrate(Particles& particles) override;
+  void migrate(Particles& particles, std::vector<Real>* state = nullptr, std::size_t width = 0) override;
   void addGhosts(Particles& particles, Real halo) override;
   void refreshGhosts(Real* values, std::size_t ownedCount) override;
   void refreshGhosts(Vec3r* values, std::size_t ownedCount) override;
   double maxOverRanks(double value) override;
   void sumOverRanks(double* values, std::size_t count) override;
   std::string firstMessage(const std::string& local) override;
-  Particles gatherToFirst(const Particles& owned) override;
+  Particles gatherToFirst(const Particles& owned, const std::vector<Real>* state = nullptr, std::size_t width = 0,
+                          std::vector<Real>* gatheredState = nullptr) override;
 
   const SlabDecomposition& slabs() const { return mSlabs; }
   /// Rebalances so far, ghosts of the last step (received), particles migrated in all.
@@ -59,8 +60,10 @@ public:
 
 private:
   /// Particle records to each rank; receives theirs into `received` (in rank order).
+  /// With `width` > 0 also the Reals of outgoingState (width per record) into receivedState.
   void exchange(const std::vector<std::vector<Record>>& outgoing, std::vector<Record>& received,
-                std::vector<int>* receivedCounts);
+                std::vector<int>* receivedCounts, const std::vector<std::vector<Real>>* outgoingState = nullptr,
+                std::vector<Real>* receivedState = nullptr, std::size_t width = 0);
   template <typename T>
   void refresh(T* values, std::size_t ownedCount);
   void logShares(const char* when, const std::vector<std::uint64_t>& counts) const;

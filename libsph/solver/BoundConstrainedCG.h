@@ -23,7 +23,11 @@
 ///     stops when sum_i weight(i) |pg_i| <= tolerance and max_i weight(i) |pg_i| <=
 ///     maxResidual, pg the projected gradient (weight: back to the caller's units).
 /// Every reduction is a fixed-order sum (ParallelSum.h): the same iterates on any
-/// number of threads.
+/// number of threads. A problem split over MPI ranks adds, optionally,
+///   - `double sumTerms(const std::vector<double>& terms)`: the sum of every rank's terms
+///     (the same bits however the terms are split: ReproducibleSum.h);
+///   - `double largest(double local)`: the maximum over the ranks,
+/// and every rank then takes the same steps.
 #pragma once
 
 #include "libsph/solver/ParallelSum.h"
@@ -33,6 +37,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace cascade {
@@ -80,6 +86,13 @@ ErrorNorms errorNorms(const Problem& problem, std::size_t n, Error&& error, Coun
   return total;
 }
 
+namespace detail {
+template <typename P, typename = void>
+struct SplitOverRanks : std::false_type {};
+template <typename P>
+struct SplitOverRanks<P, std::void_t<decltype(std::declval<P&>().largest(0.0))>> : std::true_type {};
+} // namespace detail
+
 template <typename Problem>
 bool withinTolerance(const Problem& problem, const ErrorNorms& norms) {
   return norms.sum <= problem.tolerance && norms.largest <= problem.maxResidual;
@@ -106,7 +119,36 @@ BoundConstrainedResult solveBoundConstrained(Problem& problem, std::vector<doubl
   BoundConstrainedResult result;
   std::vector<char> bound(n, 0);
   std::vector<double> p(n), Ap(n), d(n);
-  auto sum = [n](auto&& f) { return deterministicSum(n, f); };
+  // Sums and norms: in fixed chunks, or over the problem's ranks.
+  std::vector<double> terms, squares;
+  auto sum = [&](auto&& f) {
+    if constexpr (detail::SplitOverRanks<Problem>::value) {
+      terms.resize(n);
+      forEachIndex(n, [&](std::size_t i) { terms[i] = f(i); });
+      return problem.sumTerms(terms);
+    } else {
+      return deterministicSum(n, f);
+    }
+  };
+  auto normsOf = [&](auto&& error, auto&& counted, auto&& update) {
+    if constexpr (detail::SplitOverRanks<Problem>::value) {
+      terms.resize(n);
+      squares.resize(n);
+      forEachIndex(n, [&](std::size_t i) {
+        update(i);
+        terms[i] = problem.weight(i) * std::abs(error(i));
+        squares[i] = counted(i) ? g[i] * g[i] : 0.0;
+      });
+      ErrorNorms norms;
+      norms.sum = problem.sumTerms(terms);
+      norms.squares = problem.sumTerms(squares);
+      const double local = n > 0 ? parallelMaximum(n, [&](std::size_t i) { return terms[i]; }) : 0.0;
+      norms.largest = problem.largest(local);  // one collective call on every rank, empty or not
+      return norms;
+    } else {
+      return errorNorms(problem, n, error, counted, update, g);
+    }
+  };
   // Moves x by d (g follows: one product).
   auto move = [&](std::vector<double>& step) {
     double unused = 0;
@@ -134,7 +176,7 @@ BoundConstrainedResult solveBoundConstrained(Problem& problem, std::vector<doubl
       return flip;
     });
     // (the start may already be the answer)
-    if (changed == 0 && withinTolerance(problem, errorNorms(problem, n, projected, always, none, g))) {
+    if (changed == 0 && withinTolerance(problem, normsOf(projected, always, none))) {
       result.converged = true;
       break;
     }
@@ -150,7 +192,7 @@ BoundConstrainedResult solveBoundConstrained(Problem& problem, std::vector<doubl
     // set takes those). A new bound set starts a new CG; an unchanged one resumes it.
     if (!searching) {
       forEachIndex(n, [&](std::size_t i) { p[i] = -freeGradient(i); });
-      norms = errorNorms(problem, n, freeGradient, isFree, none, g);
+      norms = normsOf(freeGradient, isFree, none);
       searching = true;
     }
     const double phaseSum = std::max(problem.tolerance, phaseReduction * norms.sum);
@@ -166,12 +208,10 @@ BoundConstrainedResult solveBoundConstrained(Problem& problem, std::vector<doubl
       }
       const double alpha = norms.squares / pAp;
       const double last = norms.squares;
-      norms = errorNorms(problem, n, freeGradient, isFree,
-                         [&](std::size_t i) {
-                           x[i] += alpha * p[i];
-                           g[i] += alpha * Ap[i];
-                         },
-                         g);
+      norms = normsOf(freeGradient, isFree, [&](std::size_t i) {
+        x[i] += alpha * p[i];
+        g[i] += alpha * Ap[i];
+      });
       const double beta = norms.squares / last;
       forEachIndex(n, [&](std::size_t i) { p[i] = -freeGradient(i) + beta * p[i]; });
     }

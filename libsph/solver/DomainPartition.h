@@ -18,6 +18,7 @@
 
 #include <cstddef>
 #include <string>
+#include <vector>
 
 namespace cascade {
 
@@ -41,7 +42,9 @@ public:
   /// Sends each particle this rank holds but no longer owns to its owner and
   /// appends the ones it receives; first moves the regions if a rank's share has
   /// drifted more than the partition's tolerance from even.
-  virtual void migrate(Particles& particles) = 0;
+  /// `state`: `width` Reals per particle that travel with it (a strategy's own
+  /// per-particle state, TimeStep::packState); null for none.
+  virtual void migrate(Particles& particles, std::vector<Real>* state = nullptr, std::size_t width = 0) = 0;
 
   /// Appends ghosts: copies of the other ranks' particles within `halo` of this
   /// rank's region (positions, velocities, densities, pressures, ids). Remembers
@@ -59,8 +62,10 @@ public:
   /// The first non-empty message over ranks in rank order, on every rank ("" if none).
   virtual std::string firstMessage(const std::string& local) = 0;
 
-  /// All ranks' particles, sorted by id, on rank 0 (empty elsewhere).
-  virtual Particles gatherToFirst(const Particles& owned) = 0;
+  /// All ranks' particles, sorted by id, on rank 0 (empty elsewhere); with `state`
+  /// (`width` Reals per particle), theirs too, in the same order, into gatheredState.
+  virtual Particles gatherToFirst(const Particles& owned, const std::vector<Real>* state = nullptr,
+                                  std::size_t width = 0, std::vector<Real>* gatheredState = nullptr) = 0;
 };
 
 } // namespace cascade

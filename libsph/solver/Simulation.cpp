@@ -357,9 +357,6 @@ void Simulation::distribute() {
 
 void Simulation::setPartition(DomainPartition* partition) {
   if (mStarted) throw std::logic_error("Simulation::setPartition: set it before the first step");
-  if (partition && mSettings.solver.type != "wcsph")
-    throw InputError("solver.type: \"" + mSettings.solver.type +
-                     "\" does not run over MPI ranks yet (\"wcsph\" does); run it without mpirun");
   if (partition)
     for (const BoundaryPtr& b : mBoundaries)
       if (const auto* moving = dynamic_cast<const MovingBoundary*>(b.get()); moving && moving->isDynamic())
@@ -409,7 +406,9 @@ double Simulation::computeTimeStep() const {
   // acceleration is known; a 5 ms first step launched a resting 72-layer DFSPH column).
   const double maxAcceleration = std::max(double(mLastMaxAcceleration), double(solver.gravity.norm()));
   if (maxAcceleration > 0) dt = std::min(dt, forceFactor * std::sqrt(h / maxAcceleration));
-  dt = std::min(dt, mTimeStep->maxTimeStep(mConstants));  // the method's own bound (DFSPH: its stiffness)
+  double methodBound = mTimeStep->maxTimeStep(mConstants);  // the method's own bound (DFSPH: its stiffness)
+  if (mPartition) methodBound = -mPartition->maxOverRanks(-methodBound);
+  dt = std::min(dt, methodBound);
   // Boundary layer resolution (weakly compressible strategies with type I particles):
   // no particle may cross more than half the repulsion radius r0 of SEED (11) in one
   // step, or it jumps over the repulsion layer and through the wall. With the default
@@ -531,8 +530,13 @@ double Simulation::step() {
   removeOutside();
   checkStability();
   if (mPartition) {
-    mPartition->migrate(mParticles);
+    // The strategy's per-particle state (DFSPH's warm starts) travels with its particle.
+    const std::size_t width = mTimeStep->stateWidth();
+    std::vector<Real> state(mParticles.size() * width);
+    for (std::size_t i = 0; i < mParticles.size() && width > 0; ++i) mTimeStep->packState(i, state.data() + i * width);
+    mPartition->migrate(mParticles, &state, width);
     mTimeStep->resize(mParticles.size());
+    for (std::size_t i = 0; i < mParticles.size() && width > 0; ++i) mTimeStep->unpackState(i, state.data() + i * width);
   }
   mTimings.integrate += millisecondsSince(begin);
   return dt;
@@ -800,10 +804,27 @@ TriangleMesh Simulation::solidsMesh() const {
 }
 
 void Simulation::save(std::ostream& out) const {
-  // Over ranks: every rank's particles on rank 0, which writes them.
-  const Particles gathered = mPartition ? mPartition->gatherToFirst(mParticles) : Particles();
-  if (mPartition && mPartition->rank() != 0) return;
+  // Over ranks: every rank's particles and strategy state on rank 0, which writes them.
+  Particles gathered;
+  std::unique_ptr<TimeStep> gatheredStep;
+  if (mPartition) {
+    const std::size_t width = mTimeStep->stateWidth();
+    std::vector<Real> state(mParticles.size() * width), allState;
+    for (std::size_t i = 0; i < mParticles.size() && width > 0; ++i) mTimeStep->packState(i, state.data() + i * width);
+    gathered = mPartition->gatherToFirst(mParticles, &state, width, &allState);
+    if (mPartition->rank() != 0) return;
+    // A strategy holding every particle: this rank's (its state apart from the particles
+    // is the same on every rank), then every rank's per-particle state.
+    gatheredStep = makeTimeStep(mTimeStep->name());
+    std::stringstream local;
+    mTimeStep->save(local);
+    gatheredStep->resize(mParticles.size());
+    gatheredStep->restore(local);
+    gatheredStep->resize(gathered.size());
+    for (std::size_t i = 0; i < gathered.size() && width > 0; ++i) gatheredStep->unpackState(i, allState.data() + i * width);
+  }
   const Particles& particles = mPartition ? gathered : mParticles;
+  const TimeStep& timeStep = mPartition ? *gatheredStep : *mTimeStep;
   out.write(kMagic, sizeof(kMagic));
   writePod(out, static_cast<std::uint32_t>(sizeof(Real)));
   writePod(out, static_cast<std::uint64_t>(mBoundaries.size()));
@@ -832,7 +853,7 @@ void Simulation::save(std::ostream& out) const {
     // which may differ from mTime by the round-off advanceTo lands on).
     if (const auto* deforming = dynamic_cast<const DeformingMeshBoundary*>(b.get())) writePod(out, deforming->time());
   }
-  mTimeStep->save(out);
+  timeStep.save(out);
   if (!out) throw std::runtime_error("checkpoint: write failed");
 }
 

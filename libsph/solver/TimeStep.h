@@ -110,6 +110,11 @@ public:
   virtual void permute(const std::vector<std::size_t>& /*order*/) {}
   virtual void removeIf(const std::vector<char>& /*remove*/) {}
   virtual void resize(std::size_t /*count*/) {}
+  /// The same state as Reals per particle, so that it travels with a particle between
+  /// MPI ranks and into a checkpoint gathered from them: stateWidth() values each.
+  virtual std::size_t stateWidth() const { return 0; }
+  virtual void packState(std::size_t /*i*/, Real* /*out*/) const {}
+  virtual void unpackState(std::size_t /*i*/, const Real* /*in*/) {}
   /// Exact binary save / restore of the strategy's own state.
   virtual void save(std::ostream& /*out*/) const {}
   virtual void restore(std::istream& /*in*/) {}

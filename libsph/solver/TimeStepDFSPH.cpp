@@ -5,7 +5,9 @@
 #include "libsph/boundary/BoundaryParticles.h"
 #include "libsph/boundary/WallShearStress.h"
 #include "libsph/solver/BoundConstrainedCG.h"
+#include "libsph/solver/DomainPartition.h"
 #include "libsph/solver/ParallelSum.h"
+#include "libsph/solver/ReproducibleSum.h"
 
 #if (defined(__x86_64__) || defined(__i386__)) && !defined(CASCADE_DOUBLE) && \
     (defined(__GNUC__) || defined(__clang__))
@@ -107,11 +109,16 @@ std::vector<ImageSums>& imageScratch() {
 /// neighbours: kappa_i moves each neighbour j by dt (g_ij + sum Q G) (the pair and
 /// j's images of i), which changes i's density rate by -(g_ij + sum L^T G) . that
 /// (the pair and i's images of j). Returns sum_j (g_ij + A_j) . (g_ij + B_j) - |g_ij|^2
-/// (|g_ij|^2 is already in the fluid sum), g_ij = V grad W(x_i - x_j).
+/// (|g_ij|^2 is already in the fluid sum), g_ij = V grad W(x_i - x_j). The sources go
+/// in index order, or, with `ids` (over MPI ranks), in id order: the same on every rank.
 template <typename Kernel>
 Real imageCouplings(std::vector<ImageSums>& images, const Vec3r& xi, const std::vector<Vec3r>& position,
-                    const Kernel& kernel, Real volume, Real supportRadius2) {
-  std::sort(images.begin(), images.end(), [](const ImageSums& a, const ImageSums& b) { return a.source < b.source; });
+                    const Kernel& kernel, Real volume, Real supportRadius2, const ParticleId* ids) {
+  if (ids)
+    std::stable_sort(images.begin(), images.end(),
+                     [ids](const ImageSums& a, const ImageSums& b) { return ids[a.source] < ids[b.source]; });
+  else
+    std::sort(images.begin(), images.end(), [](const ImageSums& a, const ImageSums& b) { return a.source < b.source; });
   Real sum = 0;
   for (std::size_t k = 0; k < images.size();) {
     const std::uint32_t j = images[k].source;
@@ -252,6 +259,18 @@ void TimeStepDFSPH::resize(std::size_t count) {
   mDensityKappa.resize(count, Real(0));
   mDivergenceKappa.resize(count, Real(0));
   mWallAge.resize(count, Real(0));
+}
+
+void TimeStepDFSPH::packState(std::size_t i, Real* out) const {
+  out[0] = mDensityKappa[i];
+  out[1] = mDivergenceKappa[i];
+  out[2] = mWallAge[i];
+}
+
+void TimeStepDFSPH::unpackState(std::size_t i, const Real* in) {
+  mDensityKappa[i] = in[0];
+  mDivergenceKappa[i] = in[1];
+  mWallAge[i] = in[2];
 }
 
 void TimeStepDFSPH::permute(const std::vector<std::size_t>& order) {
@@ -503,7 +522,8 @@ void TimeStepDFSPH::prepare(StepContext& c) {
         viscous += mGhostViscous[g];
       }
       rate += mWallRate[l];
-      denominator = gradientSum.dot(change) + gradientSquares + imageCouplings(images, xi, particles.position, kernel, volume, h2);
+      denominator = gradientSum.dot(change) + gradientSquares + imageCouplings(images, xi, particles.position, kernel, volume, h2,
+                                                                           c.partition ? particles.id.data() : nullptr);
       for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g)
         if (mGhostSource[g] == i) {
           const MirrorMap& map = maps[mGhostMap[g]];
@@ -562,11 +582,35 @@ void TimeStepDFSPH::applyWallShear(StepContext& c, Real dt) {
 /// v_i -= dt sum_j V (s_i + s_j) grad W_ij = dt (s_i G_i + sum_j s_j V grad W_ij)
 /// over fluid and mirror neighbours (G_i = sum_j V grad W_ij); kappa += step.
 void TimeStepDFSPH::applyStep(std::vector<Vec3r>& velocity, std::vector<Real>& kappa, Real dt) {
+  shareWithHalo(mKappaStep.data());  // the neighbours' increments, from their owners
   const Real* step = mKappaStep.data();
-  forEachIndex(velocity.size(), [&](std::size_t i) {
+  forEachIndex(mOwned, [&](std::size_t i) {
     velocity[i] -= dt * velocityChange(step, i);
     kappa[i] += step[i];
   });
+  shareWithHalo(velocity.data());  // and their new velocities, for the next rates
+}
+
+void TimeStepDFSPH::shareWithHalo(Real* values) const {
+  if (mPartition) mPartition->refreshGhosts(values, mOwned);
+}
+
+void TimeStepDFSPH::shareWithHalo(Vec3r* values) const {
+  if (mPartition) mPartition->refreshGhosts(values, mOwned);
+}
+
+double TimeStepDFSPH::overRanks(double local) const {
+  if (mPartition) mPartition->sumOverRanks(&local, 1);
+  return local;
+}
+
+template <typename F>
+double TimeStepDFSPH::sumOf(std::size_t n, F&& f) {
+  if (mPartition == nullptr) return deterministicSum(n, f);
+  // Over ranks: the same bits however the particles are split (ReproducibleSum.h).
+  mTerms.resize(n);
+  forEachIndex(n, [&](std::size_t i) { mTerms[i] = f(i); });
+  return reproducibleSum(mTerms, mPartition);
 }
 
 Vec3r TimeStepDFSPH::velocityChange(const Real* step, std::size_t i) const {
@@ -639,12 +683,12 @@ template <typename Residual>
 BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity, std::vector<Real>& kappa, Real dt,
                                                     Residual&& residual, double tolerance, double maxResidual,
                                                     int maxProducts, double& meanCompression) {
-  const std::size_t n = velocity.size();
+  const std::size_t n = mOwned;  // the unknowns: this rank's particles (the halo's come from their owners)
   std::vector<double>& S = mScaling;
   S.resize(n);
   mSolution.resize(n);
   mGradient.resize(n);
-  mChange.resize(n);
+  mChange.resize(velocity.size());
   const double scale = double(dt) * double(dt);
   forEachIndex(n, [&](std::size_t i) {
     S[i] = mFactor[i] > 0 ? std::sqrt(double(mFactor[i]) / scale) : 0.0;
@@ -665,23 +709,32 @@ BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity
     void product(const std::vector<double>& p, std::vector<double>& out, double& pAp) {
       const std::size_t count = p.size();
       forEachIndex(count, [&](std::size_t i) { self.mKappaStep[i] = Real(S[i] * p[i]); });
+      self.shareWithHalo(self.mKappaStep.data());
       forEachIndex(count, [&](std::size_t i) { self.mChange[i] = self.velocityChange(self.mKappaStep.data(), i); });
-      pAp = deterministicSum(count, [&](std::size_t i) {
+      self.shareWithHalo(self.mChange.data());
+      pAp = self.sumOf(count, [&](std::size_t i) {
         out[i] = S[i] > 0 ? S[i] * scale * double(self.divergence(self.mChange, i)) : 0.0;
         return p[i] * out[i];
       });
     }
     double weight(std::size_t i) const { return S[i] > 0 ? 1.0 / S[i] : 0.0; }
   } problem{*this, S, scale, tolerance, maxResidual};
-  const BoundConstrainedResult result = solveBoundConstrained(problem, x, g, maxProducts);
+  // Over MPI ranks: sums and maxima over every rank (BoundConstrainedCG.h's optional concept).
+  struct SplitProblem : Problem {
+    double sumTerms(const std::vector<double>& terms) const { return reproducibleSum(terms, this->self.mPartition); }
+    double largest(double local) const { return this->self.mPartition->maxOverRanks(local); }
+  };
+  SplitProblem split{problem};
+  const BoundConstrainedResult result = mPartition ? solveBoundConstrained(split, x, g, maxProducts)
+                                                   : solveBoundConstrained(problem, x, g, maxProducts);
   forEachIndex(n, [&](std::size_t i) { mKappaStep[i] = Real(S[i] * x[i]) - kappa[i]; });
   applyStep(velocity, kappa, dt);
   // The mean compression left, from the solve's own residual (g = -S r); an inert particle's
   // is measured (it has no place in the solve).
-  meanCompression = deterministicSum(n, [&](std::size_t i) {
+  meanCompression = sumOf(n, [&](std::size_t i) {
                       return S[i] > 0 ? std::max(-g[i] / S[i], 0.0) : double(std::max(residual(i), Real(0)));
                     }) /
-                    double(n);
+                    mGlobalCount;
   return result;
 }
 
@@ -693,7 +746,12 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   std::fill(c.obstacleForce.begin(), c.obstacleForce.end(), Vec3d::Zero());
   std::fill(c.obstacleMoment.begin(), c.obstacleMoment.end(), Vec3d::Zero());
   std::fill(c.reportedObstacleForce.begin(), c.reportedObstacleForce.end(), Vec3d::Zero());
-  if (n == 0) return;
+  // Over MPI ranks the unknowns are the owned particles [0, owned); the halo after them
+  // takes its values from the owners (shareWithHalo) and sums run over every rank.
+  mPartition = c.partition;
+  mOwned = c.ownedCount();
+  mGlobalCount = std::max(overRanks(double(mOwned)), 1.0);
+  if (n == 0 && mPartition == nullptr) return;
   const SolverSettings& solver = c.settings.solver;
   mPairOffsets = c.neighbors.offsets.data();
 
@@ -738,22 +796,22 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
       return double(r);
     };
     // Warm start where the velocity field compresses (rates from prepare()).
-    forEachIndex(n, [&](std::size_t i) {
+    forEachIndex(mOwned, [&](std::size_t i) {
       const bool compressing = mNeighborCount[i] >= kMinDivergenceNeighbors && mRate[i] > 0;
       mKappaStep[i] = compressing ? kDivergenceWarmStart * mDivergenceKappa[i] : Real(0);
       mDivergenceKappa[i] = 0;
     });
     applyStep(velocity, mDivergenceKappa, dt);
-    double error = deterministicSum(n, sweep);
-    const double tolerance = double(solver.divergenceTolerance) / double(dt) * double(n);
+    double error = sumOf(mOwned, sweep);
+    const double tolerance = double(solver.divergenceTolerance) / double(dt) * mGlobalCount;
     int iterations = 0;
     while (iterations < maxIterations && error > tolerance) {
       applyStep(velocity, mDivergenceKappa, dt);
-      error = deterministicSum(n, sweep);
+      error = sumOf(mOwned, sweep);
       ++iterations;
     }
     mStatistics.divergenceIterations = iterations;
-    mStatistics.divergenceError = error / double(n) * double(dt);
+    mStatistics.divergenceError = error / mGlobalCount * double(dt);
   }
   c.timings.forces += millisecondsSince(start);
 
@@ -762,7 +820,7 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   {
     std::vector<Vec3r>& acceleration = c.acceleration;
     const double maxA = tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, n, 4096), 0.0,
+        tbb::blocked_range<std::size_t>(0, mOwned, 4096), 0.0,
         [&](const auto& range, double m) {
           for (std::size_t i = range.begin(); i != range.end(); ++i) {
             velocity[i] += dt * acceleration[i];
@@ -786,7 +844,7 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
     };
     const double tolerance = kDensityToleranceMargin * double(solver.densityTolerance);
     const BoundConstrainedResult result =
-        solveOneSided(velocity, mDensityKappa, dt, residual, tolerance * double(n), kMaxResidualShare * tolerance,
+        solveOneSided(velocity, mDensityKappa, dt, residual, tolerance * mGlobalCount, kMaxResidualShare * tolerance,
                       maxIterations, mStatistics.densityError);
     mStatistics.densityIterations = result.products;
   }
@@ -798,6 +856,15 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   // water (a resting tank's floor read 0.58-0.92 rho g H at 100 Hz probe times, 0.99 at
   // regular steps, measured); frames and probes land on shortened steps, so they report
   // regular ones.
+  if (mPartition) {
+    // The halo copies' stiffness, for the mirror pairs' forces below.
+    shareWithHalo(mDensityKappa.data());
+    shareWithHalo(mDivergenceKappa.data());
+    if (shortStep) {
+      shareWithHalo(savedDensityKappa.data());
+      shareWithHalo(savedDivergenceKappa.data());
+    }
+  }
   const std::vector<Real>& reportedDensityKappa = shortStep ? savedDensityKappa : mDensityKappa;
   const std::vector<Real>& reportedDivergenceKappa = shortStep ? savedDivergenceKappa : mDivergenceKappa;
   start = Clock::now();
@@ -831,6 +898,7 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
       const std::size_t end = std::min(layer.size(), (chunk + 1) * kLayerChunk);
       for (std::size_t k = chunk * kLayerChunk; k < end; ++k) {
         const std::uint32_t i = layer[k];
+        if (i >= mOwned) continue;  // a halo copy: its owner counts it
         const Vec3r xi = particles.position[i];
         const Real ki = mDensityKappa[i] + mDivergenceKappa[i];
         const Real reportedKi = reportedDensityKappa[i] + reportedDivergenceKappa[i];

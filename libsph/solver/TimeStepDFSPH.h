@@ -110,6 +110,9 @@ public:
   void permute(const std::vector<std::size_t>& order) override;
   void removeIf(const std::vector<char>& remove) override;
   void resize(std::size_t count) override;
+  std::size_t stateWidth() const override { return 3; }
+  void packState(std::size_t i, Real* out) const override;
+  void unpackState(std::size_t i, const Real* in) override;
   void save(std::ostream& out) const override;
   void restore(std::istream& in) override;
 
@@ -143,6 +146,21 @@ private:
                                        double& meanCompression);
   /// sum_j (s_i + s_j) V grad W_ij over fluid and mirror neighbours (the velocity change is -dt x this).
   Vec3r velocityChange(const Real* step, std::size_t i) const;
+  /// Over MPI ranks: the owners' values into the halo copies after the owned particles.
+  void shareWithHalo(Real* values) const;
+  void shareWithHalo(Vec3r* values) const;
+  /// A value summed over the ranks (itself in one process).
+  double overRanks(double local) const;
+  /// Sum of f(i) over [0, n): in fixed chunks, or over every rank's particles with the
+  /// same bits for any split (reproducibleSum) when the step runs over MPI ranks.
+  template <typename F>
+  double sumOf(std::size_t n, F&& f);
+  std::vector<double> mTerms;
+
+  // Over MPI ranks (StepContext::partition), for the step being taken.
+  DomainPartition* mPartition = nullptr;
+  std::size_t mOwned = 0;    ///< the owned particles, [0, mOwned)
+  double mGlobalCount = 1;   ///< owned particles over all ranks
 
   // State (follows the particles, saved in checkpoints): warm starts, m^2/s^2.
   std::vector<Real> mDensityKappa, mDivergenceKappa;
