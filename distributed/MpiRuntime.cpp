@@ -14,6 +14,8 @@
 #include <sstream>
 #include <thread>
 
+#include <sched.h>
+
 namespace cascade::distributed {
 
 namespace {
@@ -36,13 +38,20 @@ int launcherRankCount() {
 }
 
 int threadsPerRank() {
+  // A Slurm job step gives each task its cores (sbatch --cpus-per-task).
+  if (const char* perTask = std::getenv("SLURM_CPUS_PER_TASK")) return std::max(1, std::atoi(perTask));
+  // The cores this process may run on (an MPI launcher may bind it), shared with the
+  // other ranks on this machine when it is not bound.
+  int cores = std::max(1, int(std::thread::hardware_concurrency()));
+  cpu_set_t mask;
+  if (sched_getaffinity(0, sizeof mask, &mask) == 0 && CPU_COUNT(&mask) > 0 && CPU_COUNT(&mask) < cores)
+    return CPU_COUNT(&mask);
   int local = 1;
-  for (const char* name : {"OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS", "SLURM_NTASKS_PER_NODE"})
+  for (const char* name : {"OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS", "SLURM_STEP_TASKS_PER_NODE"})
     if (const char* value = std::getenv(name)) {
-      local = std::max(1, std::atoi(value));
+      local = std::max(1, std::atoi(value));  // Slurm's "2(x3)": 2 on each node
       break;
     }
-  const int cores = std::max(1, int(std::thread::hardware_concurrency()));
   return std::max(1, cores / local);
 }
 

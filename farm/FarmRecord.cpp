@@ -60,7 +60,7 @@ json toJson(const FarmRecord& r) {
           {"hashes", {{"bake", r.hashes.bake}, {"whitewater", r.hashes.whitewater}, {"surface", r.hashes.surface},
                       {"render", r.hashes.render}}},
           {"slurm", {{"partition", o.partition}, {"account", o.account}, {"bake_time", o.bakeTime},
-                     {"task_time", o.taskTime}, {"bake_cpus", o.bakeCpus}, {"task_cpus", o.taskCpus},
+                     {"task_time", o.taskTime}, {"bake_cpus", o.bakeCpus}, {"task_cpus", o.taskCpus}, {"bake_ranks", o.bakeRanks},
                      {"bake_memory", o.bakeMemory}, {"sbatch", o.sbatch}, {"setup", o.setup}}},
           {"rounds", rounds}};
 }
@@ -97,6 +97,7 @@ FarmRecord fromJson(const json& j, const std::string& file) {
     o.taskTime = s.at("task_time").get<std::string>();
     o.bakeCpus = s.at("bake_cpus").get<int>();
     o.taskCpus = s.at("task_cpus").get<int>();
+    o.bakeRanks = s.value("bake_ranks", 1);  // records from before MPI bakes: one process
     o.bakeMemory = s.at("bake_memory").get<std::string>();
     o.sbatch = s.at("sbatch").get<std::vector<std::string>>();
     o.setup = s.at("setup").get<std::vector<std::string>>();

@@ -21,7 +21,8 @@ namespace cascade::farm {
 struct JobOptions {
   std::string partition, account;
   std::string bakeTime, taskTime;   ///< --time of bake/whitewater jobs and of surface/render tasks
-  int bakeCpus = 1, taskCpus = 1;   ///< --cpus-per-task
+  int bakeCpus = 1, taskCpus = 1;   ///< --cpus-per-task (of each bake rank)
+  int bakeRanks = 1;                ///< MPI ranks of each bake job (srun --mpi=pmix; docs/distributed.md)
   std::string bakeMemory;           ///< --mem of bake and whitewater jobs (empty: the cluster's default)
   std::vector<std::string> sbatch;  ///< more #SBATCH options for every job
   std::vector<std::string> setup;   ///< shell lines every job runs before cascade

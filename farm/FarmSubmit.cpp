@@ -193,6 +193,8 @@ FarmRecord recordFor(const scene::Scene& scene, const SubmitSettings& settings,
     throw InputError("--task-frames: must be >= 1 (got " + std::to_string(settings.taskFrames) + ")");
   if (settings.options.bakeCpus < 0 || settings.options.taskCpus < 1)
     throw InputError("--bake-cpus and --task-cpus: must be >= 1");
+  if (settings.options.bakeRanks < 1)
+    throw InputError("--ranks: must be >= 1 (got " + std::to_string(settings.options.bakeRanks) + ")");
   FarmRecord record;
   record.options = settings.options;
   record.out = fs::absolute(settings.out).lexically_normal().string();
@@ -239,7 +241,9 @@ Partition choosePartition(FarmRecord& record) {
     throw InputError("--partition: the cluster has no partition '" + record.options.partition + "' (sinfo lists: " +
                      names + ")");
   }
-  if (record.options.bakeCpus == 0) record.options.bakeCpus = std::max(1, chosen->cpusPerNode);
+  // Each bake rank gets its share of a node (one rank: the whole node).
+  if (record.options.bakeCpus == 0)
+    record.options.bakeCpus = std::max(1, chosen->cpusPerNode / std::max(1, record.options.bakeRanks));
   return *chosen;
 }
 
@@ -305,7 +309,9 @@ void submitShot(const scene::Scene& scene, const SubmitSettings& settings, std::
   const ShotStatus status = shotStatus(record, {}, true);
   const std::vector<PlannedJob> plan = planJobs(record.shot, planningState(record, status));
   log << "farm: " << scene.name << ", " << record.shot.frameCount << " frames in " << record.shot.chunkCount()
-      << " chunks of " << record.shot.chunk << " (bake on " << record.options.bakeCpus << " core(s)), "
+      << " chunks of " << record.shot.chunk << " (bake on "
+      << (record.options.bakeRanks > 1 ? std::to_string(record.options.bakeRanks) + " MPI ranks x " : std::string())
+      << record.options.bakeCpus << " core(s)), "
       << record.shot.taskFrames << " frame(s) per surface/render task\n";
   if (plan.empty()) {
     log << "farm: every frame of every stage is done in " << record.out << "; nothing to submit\n";

@@ -44,7 +44,7 @@ std::string taskList(const std::vector<int>& tasks) {
 /// The header every job shares: options (`bake`: those of the bake and whitewater
 /// chains, else those of the array tasks), then the check that this node sees OUT.
 std::string header(const FarmRecord& record, const std::string& name, const std::string& log, bool bake,
-                   const std::string& what) {
+                   const std::string& what, int ranks = 1) {
   const JobOptions& o = record.options;
   std::ostringstream s;
   s << "#!/bin/bash\n";
@@ -54,6 +54,7 @@ std::string header(const FarmRecord& record, const std::string& name, const std:
   if (!o.account.empty()) s << "#SBATCH --account=" << o.account << "\n";
   const std::string& time = bake ? o.bakeTime : o.taskTime;
   if (!time.empty()) s << "#SBATCH --time=" << time << "\n";
+  if (ranks > 1) s << "#SBATCH --ntasks=" << ranks << "\n";  // an MPI bake: one task per rank
   s << "#SBATCH --cpus-per-task=" << (bake ? o.bakeCpus : o.taskCpus) << "\n";
   if (bake && !o.bakeMemory.empty()) s << "#SBATCH --mem=" << o.bakeMemory << "\n";
   s << "#SBATCH --requeue\n";
@@ -87,10 +88,12 @@ std::string jobScript(const FarmRecord& record, int round, const PlannedJob& job
     what << "cascade farm round " << round << ": " << stage << " frames " << job.first << "-" << job.last << " of \""
          << record.scene << "\" (chunk " << job.chunkIndex + 1 << " of " << record.shot.chunkCount()
          << "), continuing from what the chunk before left";
-    s << header(record, name, stage + "." + frames(job.first, job.last) + ".%j.log", true, what.str());
+    const int ranks = job.stage == Stage::Bake ? std::max(1, record.options.bakeRanks) : 1;
+    s << header(record, name, stage + "." + frames(job.first, job.last) + ".%j.log", true, what.str(), ranks);
     const std::string range = std::to_string(job.first) + "-" + std::to_string(job.last);
     if (job.stage == Stage::Bake)
-      s << "exec \"$CASCADE\" bake \"$OUT/scene.json\" -o \"$OUT\" --frames " << range << "\n";
+      s << "exec " << (ranks > 1 ? "srun --mpi=pmix " : "") << "\"$CASCADE\" bake \"$OUT/scene.json\" -o \"$OUT\" --frames "
+        << range << "\n";
     else
       s << "exec \"$CASCADE\" whitewater \"$OUT\" --frames " << range << "\n";
     return s.str();

@@ -7,6 +7,7 @@
 #include "TestTempDir.h"
 #include "farm/FarmRecord.h"
 #include "farm/Slurm.h"
+#include "distributed/MpiRuntime.h"
 #include "libsph/io/OutputLayout.h"
 #include "libsph/io/ParticleCache.h"
 #include "libsph/scene/Manifest.h"
@@ -19,6 +20,8 @@
 #include <filesystem>
 #include <set>
 #include <thread>
+
+#include <unistd.h>
 
 using namespace cascade;
 using namespace cascade::test;
@@ -303,6 +306,40 @@ TEST(Farm, ACancelledShotResumesToTheSameParticlesAsOneBake) {
         << "frame " << f;
 }
 
+// `farm submit --ranks 2`: each bake chunk is an MPI job (srun --mpi=pmix -n 2), the
+// second resuming from the first's checkpoint; the particles equal a local
+// `mpirun -np 1` bake's bit for bit (docs/distributed.md).
+TEST(Farm, AnMpiBakeOnTwoRanksPerChunkEqualsOneRankFrameForFrame) {
+  if (!distributed::mpiBuilt()) GTEST_SKIP() << "built without MPI";
+  const std::vector<std::string> scene{kScenes + "/dambreak.json", "--set", "size=seed", "--set",
+                                       "output.end_time=0.1"};
+  const fs::path local = scratch("mpi_local"), out = scratch("mpi_farmed");
+  const std::string mpirun = std::string("mpirun ") + (geteuid() == 0 ? "--allow-run-as-root " : "") + "-np 1 '" +
+                             CASCADE_BINARY_DIR + "/cascade' bake '" + scene[0] + "' -o '" + local.string() +
+                             "' --set size=seed --set output.end_time=0.1 > '" + local.string() + ".log' 2>&1";
+  ASSERT_EQ(std::system(mpirun.c_str()), 0) << readLog(local.string() + ".log");
+  const fs::path log = out.string() + ".submit.log";
+  ASSERT_EQ(run(concat(concat({"farm", "submit"}, scene),
+                       {"-o", out.string(), "--chunk", "3", "--task-frames", "3", "--ranks", "2", "--bake-cpus", "1",
+                        "--no-render"}),
+                log),
+            0)
+      << readLog(log);
+  EXPECT_NE(readLog(log).find("bake on 2 MPI ranks x 1 core(s)"), std::string::npos) << readLog(log);
+  std::string script;  // the first chunk's bake job
+  for (const auto& entry : fs::directory_iterator(out / "farm" / "jobs" / "round-1"))
+    if (entry.path().filename().string().rfind("bake.", 0) == 0 && script.empty()) script = readLog(entry.path());
+  EXPECT_NE(script.find("#SBATCH --ntasks=2\n"), std::string::npos) << script;
+  EXPECT_NE(script.find("exec srun --mpi=pmix \"$CASCADE\" bake"), std::string::npos) << script;
+  ASSERT_TRUE(waitForShot(out, 600));
+  const nlohmann::json status = statusOf(out);
+  EXPECT_EQ(framesIn(status, "bake", "done"), range(1, 6)) << status.dump();
+  for (int f = 1; f <= 6; ++f)
+    EXPECT_EQ(particleChecksum(readParticleFrame(OutputLayout(out).particles(f))),
+              particleChecksum(readParticleFrame(OutputLayout(local).particles(f))))
+        << "frame " << f;
+}
+
 TEST(Farm, BadInputGivesExit2AndOneLine) {
   const auto oneLine = [](const fs::path& log) {
     const std::string text = readLog(log);
@@ -314,6 +351,12 @@ TEST(Farm, BadInputGivesExit2AndOneLine) {
   EXPECT_EQ(run(concat({"farm", "submit"}, concat(bunnyScene(), {"-o", out.string(), "--partition", "nosuch"})), log), 2);
   EXPECT_TRUE(oneLine(log)) << readLog(log);
   EXPECT_NE(readLog(log).find("no partition 'nosuch' (sinfo lists: shots)"), std::string::npos) << readLog(log);
+  EXPECT_FALSE(fs::exists(out));
+  // No MPI rank at all.
+  log = out.string() + ".ranks.log";
+  EXPECT_EQ(run(concat({"farm", "submit"}, concat(bunnyScene(), {"-o", out.string(), "--ranks", "0"})), log), 2);
+  EXPECT_TRUE(oneLine(log)) << readLog(log);
+  EXPECT_NE(readLog(log).find("--ranks: must be >= 1 (got 0)"), std::string::npos) << readLog(log);
   EXPECT_FALSE(fs::exists(out));
   // An OUT that cannot be written: below a regular file.
   const fs::path file = scratch("a_file");

@@ -1,5 +1,8 @@
 // `cascade farm submit|status|resume|cancel` (docs/farm.md): a shot's stages as Slurm jobs.
 #include "Commands.h"
+
+#include "distributed/MpiRuntime.h"
+#include "libsph/Errors.h"
 #include "SceneCommand.h"
 
 #include "farm/FarmSubmit.h"
@@ -35,7 +38,10 @@ void addFarmCommand(CLI::App& app) {
   submit->add_option("--account", o.account, "Slurm account to charge");
   submit->add_option("--time", o.bakeTime, "Time limit of each bake and whitewater job (sbatch --time)");
   submit->add_option("--task-time", o.taskTime, "Time limit of each surface and render task");
-  submit->add_option("--bake-cpus", o.bakeCpus, "Cores of each bake and whitewater job (default: a node's)");
+  submit->add_option("--bake-cpus", o.bakeCpus,
+                     "Cores of each bake and whitewater job, of each rank with --ranks (default: a node's, shared)");
+  submit->add_option("--ranks", o.bakeRanks,
+                     "MPI ranks of each bake job (srun --mpi=pmix; docs/distributed.md)")->capture_default_str();
   submit->add_option("--task-cpus", o.taskCpus, "Cores of each surface and render task")->capture_default_str();
   submit->add_option("--bake-mem", o.bakeMemory, "Memory of each bake and whitewater job (sbatch --mem, e.g. 16G)");
   submit->add_option("--sbatch", o.sbatch, "One more sbatch option for every job, e.g. --sbatch=--qos=high")
@@ -51,6 +57,9 @@ void addFarmCommand(CLI::App& app) {
   submit->add_flag("--no-render", s->noRender, "Stop after surfacing");
   submit->add_flag("--dry-run", s->settings.dryRun, "Print the job scripts; write and submit nothing");
   submit->callback([s] {
+    if (s->settings.options.bakeRanks > 1 && !distributed::mpiBuilt())
+      throw InputError("--ranks: this cascade was built without MPI (install openmpi-bin and libopenmpi-dev, then "
+                       "configure again)");
     const scene::Scene scene = scene::loadScene(s->scene, s->sets);
     s->settings.out = defaultOutDir(scene, s->out);
     s->settings.whitewater = !s->noWhitewater;
