@@ -138,6 +138,17 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
   result.lastFrame = last;
   DomainPartition* const partition = options.partition;
   const bool writer = partition == nullptr || partition->rank() == 0;  // rank 0 writes every file
+  // Rank 0's writes. Over ranks a failure there is its own (the other ranks are waiting in
+  // an exchange): it leaves as a runtime_error, which stops every rank (cascade's main).
+  const auto onWriter = [&](auto&& write) {
+    if (!writer) return;
+    if (partition == nullptr) return write();
+    try {
+      write();
+    } catch (const std::exception& error) {
+      throw std::runtime_error(error.what());
+    }
+  };
   // Over ranks: a count summed over all ranks (on every rank).
   const auto countEverywhere = [&](double local) {
     if (partition) partition->sumOverRanks(&local, 1);
@@ -163,8 +174,8 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
   Progress progress(options.log, options.progressTerminal);
 
   // The resolved scene first: a failed bake still says what it ran.
-  const nlohmann::json written = writer ? writeResolvedScene(scene, layout.scene(), meshHashes)
-                                        : resolvedScene(scene, layout.scene(), meshHashes);
+  onWriter([&] { writeResolvedScene(scene, layout.scene(), meshHashes); });
+  const nlohmann::json written = resolvedScene(scene, layout.scene(), meshHashes);
   // The assets, as OUT/scene.json names them (relative to OUT, with their content hash).
   nlohmann::json assets = nlohmann::json::array();
   for (const nlohmann::json& obstacle : written["boundaries"]["obstacles"])
@@ -242,12 +253,12 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
 
   if (state.frame == 0) {
     // A fresh start: the solids for the renderer, the first emitted layers, probes at t = 0.
-    if (writer) writeObj(layout.root / "geometry" / "solids.obj", simulation.solidsMesh());
+    onWriter([&] { writeObj(layout.root / "geometry" / "solids.obj", simulation.solidsMesh()); });
     emit();
     simulation.nextTimeStep();  // derives densities and constants for the t = 0 probes
     sampleDue();
   } else if (writer && !fs::exists(layout.root / "geometry" / "solids.obj")) {
-    writeObj(layout.root / "geometry" / "solids.obj", simulation.solidsMesh());
+    onWriter([&] { writeObj(layout.root / "geometry" / "solids.obj", simulation.solidsMesh()); });
   }
 
   {
@@ -293,7 +304,7 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
     record["phase_ms"] = {{"neighbors", t.neighbors}, {"density", t.density}, {"forces", t.forces},
                           {"boundary", t.boundary}, {"integrate", t.integrate}};
     if (!error.empty()) record["error"] = error;
-    recordStage(layout.manifest(), scene.name, "bake", record);
+    onWriter([&] { recordStage(layout.manifest(), scene.name, "bake", record); });
   };
 
   try {
@@ -326,16 +337,18 @@ BakeResult bakeScene(const Scene& scene, const BakeOptions& options) {
         Particles gathered;  // over ranks: all ranks' particles on rank 0
         if (partition) gathered = simulation.gatheredParticles();
         const Particles& all = partition ? gathered : simulation.particles();
-        if (writer) writeParticleFrame(layout.particles(frame), frameOf(simulation, all, scene, frame, result.inputHash));
-        // Moving solids: the solids at this frame for the renderer (geometry/solids.NNNN.obj).
-        if (writer && simulation.hasMovingSolids()) writeObj(layout.solids(frame), simulation.solidsMesh());
+        onWriter([&] {
+          writeParticleFrame(layout.particles(frame), frameOf(simulation, all, scene, frame, result.inputHash));
+          // Moving solids: the solids at this frame for the renderer (geometry/solids.NNNN.obj).
+          if (simulation.hasMovingSolids()) writeObj(layout.solids(frame), simulation.solidsMesh());
+        });
         ++result.framesWritten;
       }
-      if (writer && hasProbes) writeTextAtomically(layout.probes(), probeHeader(scene) + state.probeRows);
+      if (hasProbes) onWriter([&] { writeTextAtomically(layout.probes(), probeHeader(scene) + state.probeRows); });
       state.frame = frame;
       state.wallSeconds = wallBefore + std::chrono::duration<double>(Clock::now() - wallStart).count();
       if (writer) {
-        writeCheckpoint(checkpointFile, state, simulation);
+        onWriter([&] { writeCheckpoint(checkpointFile, state, simulation); });
       } else {
         std::ostringstream unused;
         simulation.save(unused);  // the other ranks' part of rank 0's gather

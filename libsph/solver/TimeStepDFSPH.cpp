@@ -435,7 +435,8 @@ void TimeStepDFSPH::prepare(StepContext& c) {
   const bool avx2 = haveAvx2() && std::getenv("CASCADE_NO_AVX2") == nullptr;
   const PairConstants pairConstants{h2, kernel.inverseSupport, kernel.valueCoeff, kernel.gradientCoeff, volume, epsilon2,
                                     nu, artificial};
-  forEachIndex(n, [&](std::size_t i) {
+  // The owned particles (a halo copy takes its values from its owner).
+  forEachIndex(mOwned, [&](std::size_t i) {
     const Vec3r xi = particles.position[i], vi = velocity[i];
     Real density = volume * selfValue;
     Vec3r gradientSum = Vec3r::Zero();

@@ -553,13 +553,13 @@ void gatherPairInputs(StepContext& c, Workspace& workspace) {
 void computeFluidDensity(StepContext& c, Workspace& workspace) {
   gatherPairInputs(c, workspace);
   Particles& particles = c.particles;
-  const std::size_t n = particles.size();
   const PairInput* records = workspace.particles.data();
   const KernelConstants kernel(c.settings.solver.kernels, c.constants.supportRadius);
   const Real scale = workspace.normalisation.densityScale;
   const Real self = valueShape(kernel, 0);
   const NeighborLists& nl = c.neighbors;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const auto& range) {
+  // The owned particles (over MPI ranks the halo's densities come from their owners).
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, c.ownedCount(), 512), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       const Real sum = kernelSum(kernel, records, particles.position[i], nl.begin(i), nl.count(i));
       particles.density[i] = scale * kernel.valueCoeff * (self + sum);  // SEED (4)
@@ -577,9 +577,11 @@ void addMirrorDensity(StepContext& c, const Workspace& workspace) {
   const NeighborLists& nl = c.neighbors;
   const PairInput* records = workspace.particles.data();
   const std::vector<std::uint32_t>& layer = boundary.layer();
+  const std::size_t owned = c.ownedCount();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, layer.size(), 256), [&](const auto& range) {
     for (std::size_t k = range.begin(); k != range.end(); ++k) {
       const std::uint32_t i = layer[k];
+      if (i >= owned) continue;  // a halo copy
       const Vec3r xi = particles.position[i];
       Real sum = 0;  // of W / valueCoeff
       auto add = [&](Real r2) {

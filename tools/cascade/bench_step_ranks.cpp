@@ -20,7 +20,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <iostream>
 #include <sstream>
 #include <thread>
@@ -33,7 +32,7 @@ namespace {
 struct StepRun {
   std::size_t fluid = 0;
   double msPerStep = 0;
-  double ghosts = 0;         ///< received by rank 0 in the last step
+  double ghosts = 0;         ///< received by this rank in the last step
   double commFraction = 0;   ///< rank 0's MPI exchange time / wall time
 };
 
@@ -52,12 +51,6 @@ StepRun timeDamBreak(long target, DomainPartition* partition) {
   for (int k = 0; k < steps; ++k) sim.step();
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   run.msPerStep = 1000 * wall / steps;
-  if (std::getenv("CASCADE_BENCH_PHASES")) {
-    const StepTimings& t = sim.timings();
-    const double k = double(t.steps);
-    std::fprintf(stderr, "phases ms/step: neighbors %.2f density %.2f forces %.2f boundary %.2f integrate %.2f (%zu particles)\n",
-                 t.neighbors / k, t.density / k, t.forces / k, t.boundary / k, t.integrate / k, sim.particles().size());
-  }
   if (partition) {
     run.commFraction = (distributed::communicationSeconds(*partition) - commBefore) / wall;
     run.ghosts = double(distributed::ghostCount(*partition));
