@@ -115,36 +115,14 @@ std::unique_ptr<DomainPartition> makeWorldPartition(std::ostream* log, const std
 #endif
 }
 
-double communicationSeconds(const DomainPartition& partition) {
-#ifdef CASCADE_WITH_MPI
-  if (const auto* slabs = dynamic_cast<const MpiSlabPartition*>(&partition)) return slabs->communicationSeconds();
-#endif
-  (void)partition;
-  return 0;
-}
-
-std::size_t ghostCount(const DomainPartition& partition) {
-#ifdef CASCADE_WITH_MPI
-  if (const auto* slabs = dynamic_cast<const MpiSlabPartition*>(&partition)) return slabs->lastGhostCount();
-#endif
-  (void)partition;
-  return 0;
-}
-
 std::string partitionSummary(const DomainPartition& partition) {
-#ifdef CASCADE_WITH_MPI
-  const auto* slabs = dynamic_cast<const MpiSlabPartition*>(&partition);
-  if (slabs == nullptr) return "";
+  const DomainPartition::Statistics done = partition.statistics();
   std::ostringstream line;
   line.precision(3);
-  line << "bake: rank " << slabs->rank() << " of " << slabs->rankCount() << ": " << slabs->communicationSeconds()
-       << " s in MPI exchanges, " << slabs->lastGhostCount() << " ghosts in the last step, " << slabs->migratedCount()
-       << " particles migrated, " << slabs->rebalanceCount() << " rebalances";
+  line << "bake: rank " << partition.rank() << " of " << partition.rankCount() << ": " << done.communicationSeconds
+       << " s in MPI exchanges, " << done.lastGhosts << " ghosts in the last step, " << done.migrated
+       << " particles migrated, " << done.rebalances << " rebalances";
   return line.str();
-#else
-  (void)partition;
-  return "";
-#endif
 }
 
 } // namespace cascade::distributed

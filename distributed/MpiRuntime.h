@@ -53,12 +53,7 @@ const MpiSession* currentSession();
 /// Throws InputError for malformed cuts.
 std::unique_ptr<DomainPartition> makeWorldPartition(std::ostream* log, const std::string& cuts);
 
-/// The partition's wall time in MPI exchanges so far, s, and its ghosts in the last
-/// step (0 without MPI).
-double communicationSeconds(const DomainPartition& partition);
-std::size_t ghostCount(const DomainPartition& partition);
-
-/// One line on the partition's communication, ghosts and rebalances ("" without MPI).
+/// One line on this rank's exchanges so far: time, ghosts, migrations and rebalances.
 std::string partitionSummary(const DomainPartition& partition);
 
 } // namespace cascade::distributed

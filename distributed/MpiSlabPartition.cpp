@@ -36,7 +36,29 @@ struct MpiSlabPartition::Record {
 
 namespace {
 
-MpiSlabPartition::Record* noRecord = nullptr;
+using Record = MpiSlabPartition::Record;
+
+Record recordOf(const Particles& particles, std::size_t i) {
+  return {particles.position[i], particles.velocity[i], particles.density[i], particles.pressure[i], particles.id[i]};
+}
+
+void append(Particles& particles, const Record& r) {
+  particles.add(r.position, r.velocity, r.id);
+  particles.density.back() = r.density;
+  particles.pressure.back() = r.pressure;
+}
+
+/// An MPI datatype of `bytes` contiguous bytes, freed at the end of its scope.
+struct ContiguousType {
+  MPI_Datatype type;
+  explicit ContiguousType(std::size_t bytes) {
+    MPI_Type_contiguous(int(bytes), MPI_BYTE, &type);
+    MPI_Type_commit(&type);
+  }
+  ~ContiguousType() { MPI_Type_free(&type); }
+  ContiguousType(const ContiguousType&) = delete;
+  ContiguousType& operator=(const ContiguousType&) = delete;
+};
 
 } // namespace
 
@@ -118,9 +140,7 @@ void MpiSlabPartition::logShares(const char* when, const std::vector<std::uint64
 void MpiSlabPartition::exchange(const std::vector<std::vector<Record>>& outgoing, std::vector<Record>& received,
                                 std::vector<int>* receivedCounts, const std::vector<std::vector<Real>>* outgoingState,
                                 std::vector<Real>* receivedState, std::size_t width) {
-  MPI_Datatype type;
-  MPI_Type_contiguous(int(sizeof(Record)), MPI_BYTE, &type);
-  MPI_Type_commit(&type);
+  const ContiguousType record(sizeof(Record));
   std::vector<int> sendCounts(static_cast<std::size_t>(mSize)), recvCounts(static_cast<std::size_t>(mSize));
   std::vector<int> sendOffsets(static_cast<std::size_t>(mSize)), recvOffsets(static_cast<std::size_t>(mSize));
   std::vector<Record> send;
@@ -133,21 +153,17 @@ void MpiSlabPartition::exchange(const std::vector<std::vector<Record>>& outgoing
   int total = 0;
   for (int r = 0; r < mSize; ++r) recvOffsets[std::size_t(r)] = total, total += recvCounts[std::size_t(r)];
   received.resize(std::size_t(total));
-  MPI_Alltoallv(send.empty() ? noRecord : send.data(), sendCounts.data(), sendOffsets.data(), type,
-                received.empty() ? noRecord : received.data(), recvCounts.data(), recvOffsets.data(), type, mComm);
-  MPI_Type_free(&type);
+  MPI_Alltoallv(send.data(), sendCounts.data(), sendOffsets.data(), record.type, received.data(), recvCounts.data(),
+                recvOffsets.data(), record.type, mComm);
   if (width > 0 && outgoingState && receivedState) {
     // The state: the same counts, `width` Reals each.
-    MPI_Datatype stateType;
-    MPI_Type_contiguous(int(width * sizeof(Real)), MPI_BYTE, &stateType);
-    MPI_Type_commit(&stateType);
+    const ContiguousType state(width * sizeof(Real));
     std::vector<Real> sendState;
     for (int r = 0; r < mSize; ++r)
       sendState.insert(sendState.end(), (*outgoingState)[std::size_t(r)].begin(), (*outgoingState)[std::size_t(r)].end());
     receivedState->resize(std::size_t(total) * width);
-    MPI_Alltoallv(sendState.data(), sendCounts.data(), sendOffsets.data(), stateType, receivedState->data(),
-                  recvCounts.data(), recvOffsets.data(), stateType, mComm);
-    MPI_Type_free(&stateType);
+    MPI_Alltoallv(sendState.data(), sendCounts.data(), sendOffsets.data(), state.type, receivedState->data(),
+                  recvCounts.data(), recvOffsets.data(), state.type, mComm);
   }
   if (receivedCounts) *receivedCounts = recvCounts;
 }
@@ -187,8 +203,7 @@ void MpiSlabPartition::migrate(Particles& particles, std::vector<Real>* state, s
   for (std::size_t i = 0; i < particles.size(); ++i) {
     const int owner = mSlabs.ownerOf(particles.position[i][axis]);
     if (owner == mRank) continue;
-    outgoing[std::size_t(owner)].push_back(
-        {particles.position[i], particles.velocity[i], particles.density[i], particles.pressure[i], particles.id[i]});
+    outgoing[std::size_t(owner)].push_back(recordOf(particles, i));
     if (width > 0)
       outgoingState[std::size_t(owner)].insert(outgoingState[std::size_t(owner)].end(), state->begin() + long(i * width),
                                                state->begin() + long((i + 1) * width));
@@ -209,11 +224,7 @@ void MpiSlabPartition::migrate(Particles& particles, std::vector<Real>* state, s
   }
   if (width > 0) state->insert(state->end(), receivedState.begin(), receivedState.end());
   particles.reserve(particles.size() + received.size());
-  for (const Record& r : received) {
-    particles.add(r.position, r.velocity, r.id);
-    particles.density.back() = r.density;
-    particles.pressure.back() = r.pressure;
-  }
+  for (const Record& r : received) append(particles, r);
   mMigrated += sent;
   if (rebalancing) {
     const std::uint64_t local = particles.size();
@@ -238,18 +249,13 @@ void MpiSlabPartition::addGhosts(Particles& particles, Real halo) {
     for (int r = first; r <= last; ++r) {
       if (r == mRank) continue;
       mGhostSends[std::size_t(r)].push_back(std::uint32_t(i));
-      outgoing[std::size_t(r)].push_back(
-          {particles.position[i], particles.velocity[i], particles.density[i], particles.pressure[i], particles.id[i]});
+      outgoing[std::size_t(r)].push_back(recordOf(particles, i));
     }
   }
   std::vector<Record> received;
   exchange(outgoing, received, &mGhostReceives);
   particles.reserve(owned + received.size());
-  for (const Record& r : received) {
-    particles.add(r.position, r.velocity, r.id);
-    particles.density.back() = r.density;
-    particles.pressure.back() = r.pressure;
-  }
+  for (const Record& r : received) append(particles, r);
   mGhostCount = received.size();
 }
 
@@ -311,29 +317,22 @@ Particles MpiSlabPartition::gatherToFirst(const Particles& owned, const std::vec
                                           std::vector<Real>* gatheredState) {
   if (state == nullptr || gatheredState == nullptr) width = 0;
   Timed timed{mCommunicationSeconds};
-  MPI_Datatype type;
-  MPI_Type_contiguous(int(sizeof(Record)), MPI_BYTE, &type);
-  MPI_Type_commit(&type);
+  const ContiguousType record(sizeof(Record));
   std::vector<Record> send(owned.size());
-  for (std::size_t i = 0; i < owned.size(); ++i)
-    send[i] = {owned.position[i], owned.velocity[i], owned.density[i], owned.pressure[i], owned.id[i]};
+  for (std::size_t i = 0; i < owned.size(); ++i) send[i] = recordOf(owned, i);
   int count = int(send.size());
   std::vector<int> counts(static_cast<std::size_t>(mSize)), offsets(static_cast<std::size_t>(mSize));
   MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, mComm);
   int total = 0;
   for (int r = 0; r < mSize; ++r) offsets[std::size_t(r)] = total, total += counts[std::size_t(r)];
   std::vector<Record> all(mRank == 0 ? std::size_t(total) : 0);
-  MPI_Gatherv(send.empty() ? noRecord : send.data(), count, type, all.empty() ? noRecord : all.data(), counts.data(),
-              offsets.data(), type, 0, mComm);
-  MPI_Type_free(&type);
+  MPI_Gatherv(send.data(), count, record.type, all.data(), counts.data(), offsets.data(), record.type, 0, mComm);
   std::vector<Real> allState;
   if (width > 0) {
-    MPI_Datatype stateType;
-    MPI_Type_contiguous(int(width * sizeof(Real)), MPI_BYTE, &stateType);
-    MPI_Type_commit(&stateType);
+    const ContiguousType stateType(width * sizeof(Real));
     allState.resize(all.size() * width);
-    MPI_Gatherv(state->data(), count, stateType, allState.data(), counts.data(), offsets.data(), stateType, 0, mComm);
-    MPI_Type_free(&stateType);
+    MPI_Gatherv(state->data(), count, stateType.type, allState.data(), counts.data(), offsets.data(), stateType.type, 0,
+                mComm);
   }
   Particles out;
   out.mass = owned.mass;
@@ -344,10 +343,7 @@ Particles MpiSlabPartition::gatherToFirst(const Particles& owned, const std::vec
   out.reserve(all.size());
   if (width > 0) gatheredState->resize(all.size() * width);
   for (std::size_t k = 0; k < order.size(); ++k) {
-    const Record& r = all[order[k]];
-    out.add(r.position, r.velocity, r.id);
-    out.density.back() = r.density;
-    out.pressure.back() = r.pressure;
+    append(out, all[order[k]]);
     if (width > 0)
       std::copy_n(allState.begin() + long(order[k] * width), width, gatheredState->begin() + long(k * width));
   }

@@ -47,13 +47,9 @@ public:
   Particles gatherToFirst(const Particles& owned, const std::vector<Real>* state = nullptr, std::size_t width = 0,
                           std::vector<Real>* gatheredState = nullptr) override;
 
+  Statistics statistics() const override { return {mCommunicationSeconds, mGhostCount, mMigrated, mRebalances}; }
+
   const SlabDecomposition& slabs() const { return mSlabs; }
-  /// Rebalances so far, ghosts of the last step (received), particles migrated in all.
-  std::uint64_t rebalanceCount() const { return mRebalances; }
-  std::size_t lastGhostCount() const { return mGhostCount; }
-  std::uint64_t migratedCount() const { return mMigrated; }
-  /// Wall time in the exchanges (migration, ghosts, refreshes, reductions, gathers), s.
-  double communicationSeconds() const { return mCommunicationSeconds; }
 
   /// One particle as it travels between ranks.
   struct Record;

@@ -24,7 +24,7 @@
 ///     maxResidual, pg the projected gradient (weight: back to the caller's units).
 /// Every reduction is a fixed-order sum (ParallelSum.h): the same iterates on any
 /// number of threads. A problem split over MPI ranks adds, optionally,
-///   - `double sumTerms(const std::vector<double>& terms)`: the sum of every rank's terms
+///   - `double sumTerms(std::vector<double>& terms)`: the sum of every rank's terms (scratch)
 ///     (the same bits however the terms are split: ReproducibleSum.h);
 ///   - `double largest(double local)`: the maximum over the ranks,
 /// and every rank then takes the same steps.
@@ -140,10 +140,10 @@ BoundConstrainedResult solveBoundConstrained(Problem& problem, std::vector<doubl
         squares[i] = counted(i) ? g[i] * g[i] : 0.0;
       });
       ErrorNorms norms;
-      norms.sum = problem.sumTerms(terms);
-      norms.squares = problem.sumTerms(squares);
       const double local = n > 0 ? parallelMaximum(n, [&](std::size_t i) { return terms[i]; }) : 0.0;
       norms.largest = problem.largest(local);  // one collective call on every rank, empty or not
+      norms.sum = problem.sumTerms(terms);     // (the sums use the terms as scratch)
+      norms.squares = problem.sumTerms(squares);
       return norms;
     } else {
       return errorNorms(problem, n, error, counted, update, g);

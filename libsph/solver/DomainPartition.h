@@ -17,6 +17,7 @@
 #include "libsph/Types.h"
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -61,6 +62,15 @@ public:
   virtual void sumOverRanks(double* values, std::size_t count) = 0;
   /// The first non-empty message over ranks in rank order, on every rank ("" if none).
   virtual std::string firstMessage(const std::string& local) = 0;
+
+  /// Not collective: what this rank's exchanges have done so far (logs, benchmarks).
+  struct Statistics {
+    double communicationSeconds = 0;  ///< wall time in exchanges, reductions and gathers
+    std::size_t lastGhosts = 0;       ///< ghosts received for the last step
+    std::uint64_t migrated = 0;       ///< particles sent to another rank
+    std::uint64_t rebalances = 0;
+  };
+  virtual Statistics statistics() const = 0;
 
   /// All ranks' particles, sorted by id, on rank 0 (empty elsewhere); with `state`
   /// (`width` Reals per particle), theirs too, in the same order, into gatheredState.

@@ -17,18 +17,18 @@
 
 namespace cascade {
 
-/// The sum of terms[0, n) of every rank (collective over `partition`; null: this process's).
-inline double reproducibleSum(const std::vector<double>& terms, DomainPartition* partition) {
+/// The sum of every rank's terms (collective over `partition`; null: this process's).
+/// The terms are scratch: each level leaves in them what its slice did not take.
+inline double reproducibleSum(std::vector<double>& terms, DomainPartition* partition) {
   const std::size_t n = terms.size();
-  double largest = parallelMaximum(n, [&](std::size_t i) { return std::abs(terms[i]); });
-  if (n == 0) largest = 0;
+  double largest = n > 0 ? parallelMaximum(n, [&](std::size_t i) { return std::abs(terms[i]); }) : 0.0;
   if (partition) largest = partition->maxOverRanks(largest);
   double slices[3] = {0, 0, 0};
   if (!(largest > 0) || !std::isfinite(largest)) {
     // Nothing to cut (all zero), or a term that is not a number: a plain sum, as bad as the terms.
     slices[0] = deterministicSum(n, [&](std::size_t i) { return terms[i]; });
   } else {
-    // |term| < 2^e. Slice l extracts the multiples of 2^(e_l + k - 52), e_0 = e, with
+    // |term| < 2^e. Slice l takes the multiples of 2^(e_l + k - 52), e_0 = e, with
     // M_l = 1.5 x 2^(e_l + k): (M + x) - M is exact for |x| < 2^(e_l + k - 1), and up to
     // 2^(k - 1) such slices sum exactly. The remainder is below 2^(e_l + k - 53) = 2^e_(l+1).
     constexpr int k = 32;
@@ -37,12 +37,9 @@ inline double reproducibleSum(const std::vector<double>& terms, DomainPartition*
     for (int level = 0; level < 3; ++level, e += k - 53) {
       const double M = std::ldexp(1.5, e + k);
       slices[level] = deterministicSum(n, [&](std::size_t i) {
-        double x = terms[i];
-        for (int above = 0; above < level; ++above) {
-          const double Ma = std::ldexp(1.5, e - (level - above) * (k - 53) + k);
-          x -= (Ma + x) - Ma;  // what the slices above took (recomputed: exact)
-        }
-        return (M + x) - M;  // IEEE order (no -ffast-math): exact
+        const double slice = (M + terms[i]) - M;  // IEEE order (no -ffast-math): exact
+        terms[i] -= slice;                        // exact: what the next level cuts
+        return slice;
       });
     }
   }

@@ -91,6 +91,21 @@ void sortNeighborsById(NeighborLists& lists, const std::vector<ParticleId>& id) 
   });
 }
 
+/// A strategy's per-particle state for particles [0, count), stateWidth() Reals each.
+std::vector<Real> packedState(const TimeStep& timeStep, std::size_t count) {
+  const std::size_t width = timeStep.stateWidth();
+  std::vector<Real> state(count * width);
+  for (std::size_t i = 0; i < count && width > 0; ++i) timeStep.packState(i, state.data() + i * width);
+  return state;
+}
+
+/// Resizes the strategy to the particles `state` holds and gives each its state back.
+void unpackState(TimeStep& timeStep, const std::vector<Real>& state, std::size_t count) {
+  const std::size_t width = timeStep.stateWidth();
+  timeStep.resize(count);
+  for (std::size_t i = 0; i < count && width > 0; ++i) timeStep.unpackState(i, state.data() + i * width);
+}
+
 constexpr char kMagic[8] = {'C', 'S', 'C', 'D', 'S', 'I', 'M', '2'};  // 2: moving solids' state
 
 template <typename T>
@@ -531,12 +546,9 @@ double Simulation::step() {
   checkStability();
   if (mPartition) {
     // The strategy's per-particle state (DFSPH's warm starts) travels with its particle.
-    const std::size_t width = mTimeStep->stateWidth();
-    std::vector<Real> state(mParticles.size() * width);
-    for (std::size_t i = 0; i < mParticles.size() && width > 0; ++i) mTimeStep->packState(i, state.data() + i * width);
-    mPartition->migrate(mParticles, &state, width);
-    mTimeStep->resize(mParticles.size());
-    for (std::size_t i = 0; i < mParticles.size() && width > 0; ++i) mTimeStep->unpackState(i, state.data() + i * width);
+    std::vector<Real> state = packedState(*mTimeStep, mParticles.size());
+    mPartition->migrate(mParticles, &state, mTimeStep->stateWidth());
+    unpackState(*mTimeStep, state, mParticles.size());
   }
   mTimings.integrate += millisecondsSince(begin);
   return dt;
@@ -808,10 +820,9 @@ void Simulation::save(std::ostream& out) const {
   Particles gathered;
   std::unique_ptr<TimeStep> gatheredStep;
   if (mPartition) {
-    const std::size_t width = mTimeStep->stateWidth();
-    std::vector<Real> state(mParticles.size() * width), allState;
-    for (std::size_t i = 0; i < mParticles.size() && width > 0; ++i) mTimeStep->packState(i, state.data() + i * width);
-    gathered = mPartition->gatherToFirst(mParticles, &state, width, &allState);
+    const std::vector<Real> state = packedState(*mTimeStep, mParticles.size());
+    std::vector<Real> allState;
+    gathered = mPartition->gatherToFirst(mParticles, &state, mTimeStep->stateWidth(), &allState);
     if (mPartition->rank() != 0) return;
     // A strategy holding every particle: this rank's (its state apart from the particles
     // is the same on every rank), then every rank's per-particle state.
@@ -820,8 +831,7 @@ void Simulation::save(std::ostream& out) const {
     mTimeStep->save(local);
     gatheredStep->resize(mParticles.size());
     gatheredStep->restore(local);
-    gatheredStep->resize(gathered.size());
-    for (std::size_t i = 0; i < gathered.size() && width > 0; ++i) gatheredStep->unpackState(i, allState.data() + i * width);
+    unpackState(*gatheredStep, allState, gathered.size());
   }
   const Particles& particles = mPartition ? gathered : mParticles;
   const TimeStep& timeStep = mPartition ? *gatheredStep : *mTimeStep;

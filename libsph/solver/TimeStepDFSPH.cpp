@@ -722,7 +722,7 @@ BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity
   } problem{*this, S, scale, tolerance, maxResidual};
   // Over MPI ranks: sums and maxima over every rank (BoundConstrainedCG.h's optional concept).
   struct SplitProblem : Problem {
-    double sumTerms(const std::vector<double>& terms) const { return reproducibleSum(terms, this->self.mPartition); }
+    double sumTerms(std::vector<double>& terms) const { return reproducibleSum(terms, this->self.mPartition); }
     double largest(double local) const { return this->self.mPartition->maxOverRanks(local); }
   };
   SplitProblem split{problem};

@@ -4,6 +4,7 @@
 // resumes on another rank count; a rank killed by SIGKILL stops the others within
 // seconds and the checkpoint before it resumes; bad input is one line and exit 2.
 #include "TestTempDir.h"
+#include "bake/CascadeProcess.h"
 #include "libsph/io/ParticleCache.h"
 
 #include <gtest/gtest.h>
@@ -18,7 +19,6 @@
 #include <thread>
 #include <vector>
 
-#include <dirent.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -27,7 +27,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kCascade = std::string(CASCADE_BINARY_DIR) + "/cascade";
+using test::readLog;
+
 const std::string kScenes = std::string(CASCADE_SOURCE_DIR) + "/scenes/";
 
 struct Result {
@@ -35,22 +36,15 @@ struct Result {
   std::string output;
 };
 
-std::string slurp(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 Result run(const std::string& command, const fs::path& log) {
   const int status = std::system((command + " > '" + log.string() + "' 2>&1").c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(log)};
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, readLog(log)};
 }
 
 /// mpirun on this machine: as root (CI) it must be told so; 3 ranks on 2 cores oversubscribe.
 std::string mpirun(int ranks) {
   return std::string("mpirun ") + (geteuid() == 0 ? "--allow-run-as-root " : "") + "--oversubscribe --bind-to none -np " +
-         std::to_string(ranks) + " '" + kCascade + "' ";
+         std::to_string(ranks) + " '" + test::cascadeBinary() + "' ";
 }
 
 Result bake(int ranks, const std::string& scene, const fs::path& out, const std::string& extra = "") {
@@ -88,8 +82,8 @@ TEST(MpiBake, DamBreakOnOneTwoAndThreeRanksIsBitIdenticalEveryFrame) {
   }
   EXPECT_EQ(readParticleFrame(outs[2] / "particles" / "particles.0018.vdb").size(), 968u);
   // The probes too (front and column height), sampled from all ranks' particles.
-  EXPECT_EQ(slurp(outs[1] / "probes.csv"), slurp(outs[0] / "probes.csv"));
-  EXPECT_EQ(slurp(outs[2] / "probes.csv"), slurp(outs[0] / "probes.csv"));
+  EXPECT_EQ(readLog(outs[1] / "probes.csv"), readLog(outs[0] / "probes.csv"));
+  EXPECT_EQ(readLog(outs[2] / "probes.csv"), readLog(outs[0] / "probes.csv"));
 }
 
 TEST(MpiBake, BunnyWithRankBoundariesThroughTheObstacleAndTheEmitterEqualsOneRank) {
@@ -215,7 +209,7 @@ TEST(MpiBake, ARankKilledStopsTheOthersWithinSecondsAndTheCheckpointResumes) {
   for (pid_t child : childrenOf(launcher))
     if (environmentOf(child, "OMPI_COMM_WORLD_RANK") == "1") rank1 = child;
   if (rank1 == 0) kill(-launcher, SIGKILL);
-  ASSERT_NE(rank1, 0) << "no rank 1 under mpirun " << launcher << "\n" << slurp(out.string() + ".log");
+  ASSERT_NE(rank1, 0) << "no rank 1 under mpirun " << launcher << "\n" << readLog(out.string() + ".log");
   ASSERT_EQ(kill(rank1, SIGKILL), 0);
   const auto killed = std::chrono::steady_clock::now();
   int status = 0;
@@ -230,7 +224,7 @@ TEST(MpiBake, ARankKilledStopsTheOthersWithinSecondsAndTheCheckpointResumes) {
   }
   ASSERT_EQ(done, launcher) << "mpirun still running " << seconds << " s after rank 1 died";
   EXPECT_LT(seconds, 10.0);
-  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) != 0) << slurp(out.string() + ".log");
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) != 0) << readLog(out.string() + ".log");
   for (pid_t child : childrenOf(launcher)) ADD_FAILURE() << "rank process " << child << " left running";
   std::cout << "mpirun stopped " << seconds << " s after rank 1 was killed\n";
 

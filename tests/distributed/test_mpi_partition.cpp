@@ -78,7 +78,7 @@ TEST(MpiSlabPartition, AParticleCrossingTwoRanksInOneStepGoesStraightToItsOwner)
       EXPECT_EQ(mine.density[i], Real(1234));
       EXPECT_EQ(mine.velocity[i].x(), Real(0));
     }
-  EXPECT_EQ(partition.maxOverRanks(double(partition.migratedCount())), 1.0);
+  EXPECT_EQ(partition.maxOverRanks(double(partition.statistics().migrated)), 1.0);
 }
 
 TEST(MpiSlabPartition, GhostsAreExactlyTheOtherRanksParticlesWithinTheHalo) {
@@ -165,7 +165,7 @@ TEST(MpiSlabPartition, ShareDriftingMoreThanTenPercentRebalances) {
   // The water runs to the far end: x in [0.8, 1].
   for (Vec3r& p : mine.position) p.x() = Real(0.8) + Real(0.2) * p.x();
   partition.migrate(mine);
-  EXPECT_EQ(partition.rebalanceCount(), 1u);
+  EXPECT_EQ(partition.statistics().rebalances, 1u);
   std::uint64_t count = mine.size(), counts[3];
   MPI_Allgather(&count, 1, MPI_UINT64_T, counts, 1, MPI_UINT64_T, MPI_COMM_WORLD);
   EXPECT_EQ(counts[0] + counts[1] + counts[2], 3000u);
@@ -175,10 +175,10 @@ TEST(MpiSlabPartition, ShareDriftingMoreThanTenPercentRebalances) {
     EXPECT_NE(log.str().find("(rebalanced)"), std::string::npos) << log.str();
   }
   // Balanced now: the next migration moves nothing and keeps the cuts.
-  const std::uint64_t migrated = partition.migratedCount();
+  const std::uint64_t migrated = partition.statistics().migrated;
   partition.migrate(mine);
-  EXPECT_EQ(partition.rebalanceCount(), 1u);
-  EXPECT_EQ(partition.migratedCount(), migrated);
+  EXPECT_EQ(partition.statistics().rebalances, 1u);
+  EXPECT_EQ(partition.statistics().migrated, migrated);
 }
 
 int main(int argc, char** argv) {

@@ -46,14 +46,14 @@ StepRun timeDamBreak(long target, DomainPartition* partition) {
   if (partition) sim.setPartition(partition);
   const int warmup = 5, steps = target > 300000 ? 8 : 40;
   for (int k = 0; k < warmup; ++k) sim.step();
-  const double commBefore = partition ? distributed::communicationSeconds(*partition) : 0;
+  const double commBefore = partition ? partition->statistics().communicationSeconds : 0;
   const auto start = std::chrono::steady_clock::now();
   for (int k = 0; k < steps; ++k) sim.step();
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   run.msPerStep = 1000 * wall / steps;
   if (partition) {
-    run.commFraction = (distributed::communicationSeconds(*partition) - commBefore) / wall;
-    run.ghosts = double(distributed::ghostCount(*partition));
+    run.commFraction = (partition->statistics().communicationSeconds - commBefore) / wall;
+    run.ghosts = double(partition->statistics().lastGhosts);
   }
   return run;
 }
