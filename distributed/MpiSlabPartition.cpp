@@ -281,10 +281,9 @@ void MpiSlabPartition::refresh(T* values, std::size_t ownedCount) {
 void MpiSlabPartition::refreshGhosts(Real* values, std::size_t ownedCount) { refresh(values, ownedCount); }
 void MpiSlabPartition::refreshGhosts(Vec3r* values, std::size_t ownedCount) { refresh(values, ownedCount); }
 
-double MpiSlabPartition::maxOverRanks(double value) {
+void MpiSlabPartition::maxOverRanks(double* values, std::size_t count) {
   Timed timed{mCommunicationSeconds};
-  MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_DOUBLE, MPI_MAX, mComm);
-  return value;
+  MPI_Allreduce(MPI_IN_PLACE, values, int(count), MPI_DOUBLE, MPI_MAX, mComm);
 }
 
 void MpiSlabPartition::sumOverRanks(double* values, std::size_t count) {

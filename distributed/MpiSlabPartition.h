@@ -41,7 +41,8 @@ public:
   void addGhosts(Particles& particles, Real halo) override;
   void refreshGhosts(Real* values, std::size_t ownedCount) override;
   void refreshGhosts(Vec3r* values, std::size_t ownedCount) override;
-  double maxOverRanks(double value) override;
+  using DomainPartition::maxOverRanks;
+  void maxOverRanks(double* values, std::size_t count) override;
   void sumOverRanks(double* values, std::size_t count) override;
   std::string firstMessage(const std::string& local) override;
   Particles gatherToFirst(const Particles& owned, const std::vector<Real>* state = nullptr, std::size_t width = 0,

@@ -56,8 +56,13 @@ public:
   virtual void refreshGhosts(Real* values, std::size_t ownedCount) = 0;
   virtual void refreshGhosts(Vec3r* values, std::size_t ownedCount) = 0;
 
-  /// The largest value over all ranks (exact, so every rank gets the same step).
-  virtual double maxOverRanks(double value) = 0;
+  /// The largest of each of `count` values over all ranks, in place (exact, so every
+  /// rank gets the same step).
+  virtual void maxOverRanks(double* values, std::size_t count) = 0;
+  double maxOverRanks(double value) {
+    maxOverRanks(&value, 1);
+    return value;
+  }
   /// Sums `count` values over all ranks, in rank order (the same result on every rank).
   virtual void sumOverRanks(double* values, std::size_t count) = 0;
   /// The first non-empty message over ranks in rank order, on every rank ("" if none).

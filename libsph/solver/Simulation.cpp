@@ -7,6 +7,7 @@
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/BinaryPod.h"
 #include "libsph/solver/DomainPartition.h"
+#include "libsph/solver/ReactionSums.h"
 #include "libsph/search/MortonCode.h"
 
 #include <tbb/blocked_range.h>
@@ -372,11 +373,6 @@ void Simulation::distribute() {
 
 void Simulation::setPartition(DomainPartition* partition) {
   if (mStarted) throw std::logic_error("Simulation::setPartition: set it before the first step");
-  if (partition)
-    for (const BoundaryPtr& b : mBoundaries)
-      if (const auto* moving = dynamic_cast<const MovingBoundary*>(b.get()); moving && moving->isDynamic())
-        throw InputError("boundaries: the rigid body '" + b->name() +
-                         "' does not run over MPI ranks yet; run the scene without mpirun");
   mPartition = partition;
 }
 
@@ -509,25 +505,8 @@ double Simulation::step() {
                       mAcceleration, mObstacleForce, mReportedForce, mObstacleMoment, mTimings, mTime, 0,
                       mPartition, owned};
   mTimeStep->advance(context, static_cast<Real>(dt));
-  if (mPartition) {
-    // Every rank's share of the forces on the solids, summed in rank order.
-    const std::size_t b = mBoundaries.size();
-    std::vector<double> sums(9 * b);
-    for (std::size_t k = 0; k < b; ++k)
-      for (int a = 0; a < 3; ++a) {
-        sums[9 * k + a] = mObstacleForce[k][a];
-        sums[9 * k + 3 + a] = mReportedForce[k][a];
-        sums[9 * k + 6 + a] = mObstacleMoment[k][a];
-      }
-    mPartition->sumOverRanks(sums.data(), sums.size());
-    for (std::size_t k = 0; k < b; ++k)
-      for (int a = 0; a < 3; ++a) {
-        mObstacleForce[k][a] = sums[9 * k + a];
-        mReportedForce[k][a] = sums[9 * k + 3 + a];
-        mObstacleMoment[k][a] = sums[9 * k + 6 + a];
-      }
-    context.maxAcceleration = Real(mPartition->maxOverRanks(double(context.maxAcceleration)));
-  }
+  // The forces on the solids are every rank's already (ReactionSums.h), the same bits on any rank count.
+  if (mPartition) context.maxAcceleration = Real(mPartition->maxOverRanks(double(context.maxAcceleration)));
   begin = Clock::now();
   moveSolids(dt);
   keepOutOfSolids(dt, owned);
@@ -619,19 +598,15 @@ void Simulation::keepOutOfSolids(double dt, std::size_t owned) {
   if (mBoundaries.empty()) return;
   const Real clearance = Real(0.25) * mSettings.fluid.spacing;
   // The velocity the guard takes is the wall's push: a force on it (-m dv / dt), summed
-  // in fixed chunks in order (deterministic); a rigid body gets the impulse at once (it
-  // has already moved for this step).
+  // the same in every run and on any rank count (ReactionSums.h); a rigid body gets the
+  // impulse at once (it has already moved for this step).
   const std::size_t boundaries = mBoundaries.size();
-  constexpr std::size_t kChunk = 256;
-  const std::size_t chunks = (layer.size() + kChunk - 1) / kChunk;
-  std::vector<Vec3d> chunkSums(chunks * 2 * boundaries, Vec3d::Zero());
-  std::vector<std::uint64_t> chunkCounts(chunks, 0);
+  ReactionSums reactions(layer.size(), boundaries, 2, mPartition);  // impulse, its moment
+  std::vector<std::uint64_t> chunkCounts(ReactionSums::chunks(layer.size()), 0);
   const double mass = double(mConstants.particleMass);
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t chunk) {
-    Vec3d* impulse = chunkSums.data() + chunk * 2 * boundaries;
-    Vec3d* angular = impulse + boundaries;
-    const std::size_t end = std::min(layer.size(), (chunk + 1) * kChunk);
-    for (std::size_t k = chunk * kChunk; k < end; ++k) {
+  tbb::parallel_for(std::size_t(0), chunkCounts.size(), [&](std::size_t chunk) {
+    const std::size_t end = std::min(layer.size(), (chunk + 1) * ReactionSums::kChunk);
+    for (std::size_t k = chunk * ReactionSums::kChunk; k < end; ++k) {
       const std::uint32_t i = layer[k];
       if (i >= owned) continue;  // a ghost
       const Vec3r from = mLayerStart[k], to = mParticles.position[i];
@@ -643,46 +618,25 @@ void Simulation::keepOutOfSolids(double dt, std::size_t owned) {
         v += change;  // relative to the wall
         mParticles.position[i] = exit;
         const Vec3d j = -mass * change.cast<double>();  // on the wall
-        impulse[b] += j;
-        angular[b] += exit.cast<double>().cross(j);
+        Vec3d* const record = reactions.record(k);
+        record[reactions.index(0, b)] += j;
+        record[reactions.index(1, b)] += exit.cast<double>().cross(j);
         ++chunkCounts[chunk];
         break;
       }
     }
   });
-  if (mPartition) {
-    // Over ranks (no rigid bodies): each rank's impulses in chunk order, then summed in rank order.
-    std::vector<double> sums(6 * boundaries, 0.0);
-    for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
-      mKeptOutCount += chunkCounts[chunk];
-      for (std::size_t b = 0; b < boundaries; ++b)
-        for (int a = 0; a < 3; ++a) {
-          sums[6 * b + a] += chunkSums[chunk * 2 * boundaries + b][a];
-          sums[6 * b + 3 + a] += chunkSums[chunk * 2 * boundaries + boundaries + b][a];
-        }
-    }
-    mPartition->sumOverRanks(sums.data(), sums.size());
-    for (std::size_t b = 0; b < boundaries; ++b) {
-      const Vec3d j(sums[6 * b], sums[6 * b + 1], sums[6 * b + 2]), l(sums[6 * b + 3], sums[6 * b + 4], sums[6 * b + 5]);
-      mObstacleForce[b] += j / dt;
-      mReportedForce[b] += j / dt;
-      mObstacleMoment[b] += l / dt;
-    }
-    return;
-  }
-  for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
-    mKeptOutCount += chunkCounts[chunk];
-    if (chunkCounts[chunk] == 0) continue;
-    for (std::size_t b = 0; b < boundaries; ++b) {
-      const Vec3d& j = chunkSums[chunk * 2 * boundaries + b];
-      const Vec3d& l = chunkSums[chunk * 2 * boundaries + boundaries + b];
-      if (j.isZero() && l.isZero()) continue;
-      mObstacleForce[b] += j / dt;
-      mReportedForce[b] += j / dt;
-      mObstacleMoment[b] += l / dt;
-      if (auto* moving = dynamic_cast<MovingBoundary*>(mBoundaries[b].get()); moving && moving->isDynamic())
-        moving->applyImpulse(j, l - moving->center().cross(j));
-    }
+  for (std::uint64_t count : chunkCounts) mKeptOutCount += count;
+  const std::vector<Vec3d> totals = reactions.totals();  // collective over ranks
+  for (std::size_t b = 0; b < boundaries; ++b) {
+    const Vec3d& j = totals[reactions.index(0, b)];
+    const Vec3d& l = totals[reactions.index(1, b)];
+    if (j.isZero() && l.isZero()) continue;
+    mObstacleForce[b] += j / dt;
+    mReportedForce[b] += j / dt;
+    mObstacleMoment[b] += l / dt;
+    if (auto* moving = dynamic_cast<MovingBoundary*>(mBoundaries[b].get()); moving && moving->isDynamic())
+      moving->applyImpulse(j, l - moving->center().cross(j));
   }
 }
 

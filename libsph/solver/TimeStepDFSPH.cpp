@@ -7,6 +7,7 @@
 #include "libsph/solver/BoundConstrainedCG.h"
 #include "libsph/solver/DomainPartition.h"
 #include "libsph/solver/ParallelSum.h"
+#include "libsph/solver/ReactionSums.h"
 #include "libsph/solver/ReproducibleSum.h"
 
 #if (defined(__x86_64__) || defined(__i386__)) && !defined(CASCADE_DOUBLE) && \
@@ -871,7 +872,8 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   start = Clock::now();
   const std::size_t boundaryCount = c.obstacleForce.size();
   const std::vector<std::uint32_t>& layer = c.boundary.layer();
-  if (!layer.empty() && !maps.empty()) {
+  // Over ranks the sums below are collective: every rank takes part, with or without a layer.
+  if ((!layer.empty() && !maps.empty()) || (mPartition && boundaryCount > 0)) {
     // Everything the walls did to the fluid this step, as forces on them (the negative
     // of the impulse each wall gave the fluid, over dt), summed in fixed chunks in order:
     // - the mirror pairs' pressure: m (kappa_i + kappa_j) V grad W_ij' with kappa the step's
@@ -888,18 +890,15 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
     const Real mass = c.constants.particleMass;
     const Real minDistance = Real(0.25) * c.settings.fluid.spacing;
     const std::vector<std::uint32_t>& mapOffsets = c.boundary.mirrorOffsets();
-    constexpr std::size_t kLayerChunk = 256;
-    const std::size_t chunks = (layer.size() + kLayerChunk - 1) / kLayerChunk;
-    const std::size_t stride = 3 * std::max<std::size_t>(boundaryCount, 1);  // force, reported, moment
-    std::vector<Vec3d> chunkSums(chunks * stride, Vec3d::Zero());
-    tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t chunk) {
-      Vec3d* force = chunkSums.data() + chunk * stride;
-      Vec3d* reported = force + boundaryCount;
-      Vec3d* moment = reported + boundaryCount;
-      const std::size_t end = std::min(layer.size(), (chunk + 1) * kLayerChunk);
-      for (std::size_t k = chunk * kLayerChunk; k < end; ++k) {
+    ReactionSums reactions(layer.size(), boundaryCount, 3, mPartition);  // force, reported, moment
+    tbb::parallel_for(std::size_t(0), ReactionSums::chunks(layer.size()), [&](std::size_t chunk) {
+      const std::size_t end = std::min(layer.size(), (chunk + 1) * ReactionSums::kChunk);
+      for (std::size_t k = chunk * ReactionSums::kChunk; k < end; ++k) {
         const std::uint32_t i = layer[k];
-        if (i >= mOwned) continue;  // a halo copy: its owner counts it
+        if (i >= mOwned || maps.empty()) continue;  // a halo copy: its owner counts it
+        Vec3d* const force = reactions.record(k);
+        Vec3d* const reported = force + boundaryCount;
+        Vec3d* const moment = reported + boundaryCount;
         const Vec3r xi = particles.position[i];
         const Real ki = mDensityKappa[i] + mDivergenceKappa[i];
         const Real reportedKi = reportedDensityKappa[i] + reportedDivergenceKappa[i];
@@ -939,13 +938,12 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
         }
       }
     });
-    for (std::size_t chunk = 0; chunk < chunks; ++chunk)
-      for (std::size_t b = 0; b < boundaryCount; ++b) {
-        const Vec3d* sums = chunkSums.data() + chunk * stride;
-        c.obstacleForce[b] += sums[b];
-        c.reportedObstacleForce[b] += sums[boundaryCount + b];
-        c.obstacleMoment[b] += sums[2 * boundaryCount + b];
-      }
+    const std::vector<Vec3d> totals = reactions.totals();  // collective over ranks
+    for (std::size_t b = 0; b < boundaryCount; ++b) {
+      c.obstacleForce[b] = totals[reactions.index(0, b)];
+      c.reportedObstacleForce[b] = totals[reactions.index(1, b)];
+      c.obstacleMoment[b] = totals[reactions.index(2, b)];
+    }
   }
   c.timings.boundary += millisecondsSince(start);
   start = Clock::now();

@@ -4,6 +4,7 @@
 #include "libsph/boundary/BoundaryParticles.h"
 #include "libsph/solver/DomainPartition.h"
 #include "libsph/solver/EquationOfState.h"
+#include "libsph/solver/ReactionSums.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -742,7 +743,7 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
   const std::size_t boundaryCount = c.obstacleForce.size();
   std::fill(c.obstacleForce.begin(), c.obstacleForce.end(), Vec3d::Zero());
   std::fill(c.obstacleMoment.begin(), c.obstacleMoment.end(), Vec3d::Zero());
-  if (layer.empty()) return;
+  if (layer.empty() && c.partition == nullptr) return;  // over ranks the sums below are collective
   const ForceConstants k = forceConstants(c, workspace);
   const Real viscosityCoeff = viscosityFactor(c);
   const PairInput* records = workspace.particles.data();
@@ -763,23 +764,20 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
   const NeighborLists& sampleLists = boundary.sampleNeighbors();
   const Real mass = c.constants.particleMass;
 
-  // Fixed chunks so the per-boundary force sums are the same in every run.
-  constexpr std::size_t kChunk = 256;
-  const std::size_t chunks = (layer.size() + kChunk - 1) / kChunk;
-  std::vector<Vec3d> chunkForce(chunks * boundaryCount, Vec3d::Zero());
-  std::vector<Vec3d> chunkMoment(chunks * boundaryCount, Vec3d::Zero());
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t chunk) {
-    Vec3d* force = chunkForce.data() + chunk * boundaryCount;
-    Vec3d* moment = chunkMoment.data() + chunk * boundaryCount;
-    const auto react = [&](std::uint32_t owner, const Vec3d& f, const Vec3r& at) {
-      force[owner] += f;
-      moment[owner] += at.cast<double>().cross(f);
-    };
-    const std::size_t end = std::min(layer.size(), (chunk + 1) * kChunk);
+  // Force and moment on each solid, the same in every run and on any rank count.
+  ReactionSums reactions(layer.size(), boundaryCount, 2, c.partition);
+  tbb::parallel_for(std::size_t(0), ReactionSums::chunks(layer.size()), [&](std::size_t chunk) {
+    const std::size_t end = std::min(layer.size(), (chunk + 1) * ReactionSums::kChunk);
     const std::size_t owned = c.ownedCount();
-    for (std::size_t kk = chunk * kChunk; kk < end; ++kk) {
+    for (std::size_t kk = chunk * ReactionSums::kChunk; kk < end; ++kk) {
       const std::uint32_t i = layer[kk];
       if (i >= owned) continue;  // a ghost: its owner moves it
+      Vec3d* const force = reactions.record(kk);
+      Vec3d* const moment = force + boundaryCount;
+      const auto react = [&](std::uint32_t owner, const Vec3d& f, const Vec3r& at) {
+        force[owner] += f;
+        moment[owner] += at.cast<double>().cross(f);
+      };
       const Vec3r xi = particles.position[i], vi = particles.velocity[i];
       const Real pi = particles.pressure[i], rhoi = particles.density[i];
       Vec3r total = Vec3r::Zero();
@@ -885,11 +883,11 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
       c.acceleration[i] += total;
     }
   });
-  for (std::size_t chunk = 0; chunk < chunks; ++chunk)
-    for (std::size_t b = 0; b < boundaryCount; ++b) {
-      c.obstacleForce[b] += chunkForce[chunk * boundaryCount + b];
-      c.obstacleMoment[b] += chunkMoment[chunk * boundaryCount + b];
-    }
+  const std::vector<Vec3d> totals = reactions.totals();  // collective over ranks
+  for (std::size_t b = 0; b < boundaryCount; ++b) {
+    c.obstacleForce[b] = totals[reactions.index(0, b)];
+    c.obstacleMoment[b] = totals[reactions.index(1, b)];
+  }
 }
 
 void integrateContinuityDensity(StepContext& c, Workspace& workspace, Real dt) {
