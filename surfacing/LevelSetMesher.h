@@ -8,10 +8,15 @@
 ///        orientation (MeshCleanup makes it outward), with an error bound the
 ///        library does not give: a triangle whose centroid or corner lies more
 ///        than kAdaptiveTolerance voxels from the zero crossing (|phi| there), or
-///        that crosses another triangle (CGAL, MeshChecks.h), has the voxels
-///        around it meshed again unmerged (OpenVDB's adaptivity mask), up to
-///        three rounds, else the uniform mesh. Vertices are shared. Internal to
-///        surfacing (includes OpenVDB).
+///        that crosses another triangle (CGAL, MeshChecks.h, over the merged
+///        triangles and those around them only), or a vertex of the uniform mesh
+///        that lies further than that from the adaptive one (merging that spans a
+///        thin spike), has the voxels around it meshed again unmerged (OpenVDB's
+///        adaptivity mask), up to three rounds, else the uniform mesh. The uniform
+///        mesh's small components (droplets, spray) are never merged, so the
+///        clean-up's volume threshold keeps the same specks in both. A mesh merged
+///        less than kMinimumAdaptiveCut times is not worth it: the uniform mesh.
+///        Vertices are shared. Internal to surfacing (includes OpenVDB).
 #pragma once
 
 #include "libsph/io/TriangleMesh.h"
@@ -23,6 +28,9 @@ namespace cascade::surfacing {
 /// Largest distance (voxels) of an adaptive mesh's triangle centroids and corners
 /// from the level set's zero crossing.
 constexpr double kAdaptiveTolerance = 0.45;
+
+/// Adaptive meshing keeps the uniform mesh unless it has this many times fewer triangles.
+constexpr double kMinimumAdaptiveCut = 1.5;
 
 /// `adaptivity` in [0, 1]: 0 gives a uniform mesh, 1 merges flat regions the most.
 TriangleMesh levelSetToMesh(const openvdb::FloatGrid& grid, double adaptivity);

@@ -8,6 +8,7 @@
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/boost/graph/helpers.h>
 #include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
@@ -80,6 +81,29 @@ std::vector<std::size_t> selfIntersectingTriangles(const TriangleMesh& mesh) {
   }
   std::sort(result.begin(), result.end());
   result.erase(std::unique(result.begin(), result.end()), result.end());
+  return result;
+}
+
+std::vector<std::size_t> pointsFartherThan(const std::vector<Eigen::Vector3f>& points, const TriangleMesh& mesh,
+                                           double distance) {
+  if (points.empty()) return {};
+  std::vector<std::size_t> all(points.size());
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = i;
+  if (mesh.triangles.empty()) return all;
+  TriangleList triangles;
+  triangles.reserve(mesh.triangles.size());
+  for (const auto& t : mesh.triangles)
+    triangles.emplace_back(point(mesh.vertices[t[0]]), point(mesh.vertices[t[1]]), point(mesh.vertices[t[2]]));
+  Tree tree(triangles.begin(), triangles.end());
+  tree.accelerate_distance_queries();
+  std::vector<char> far(points.size(), 0);
+  const double squared = distance * distance;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 1024), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) far[i] = tree.squared_distance(point(points[i])) > squared;
+  });
+  std::vector<std::size_t> result;
+  for (std::size_t i = 0; i < far.size(); ++i)
+    if (far[i]) result.push_back(i);
   return result;
 }
 

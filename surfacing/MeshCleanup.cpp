@@ -33,10 +33,11 @@ struct UnionFind {
   }
 };
 
-/// The root (smallest vertex index) of each vertex's vertex-connected component.
-/// Union-find over two fixed halves of the triangles in parallel, then the second
-/// half's sets merged into the first's: roots are the smallest index of their
-/// set whatever the order of the unions, so the result is deterministic.
+} // namespace
+
+// Union-find over two fixed halves of the triangles in parallel, then the second
+// half's sets merged into the first's: roots are the smallest index of their set
+// whatever the order of the unions, so the result is deterministic.
 std::vector<std::uint32_t> componentRoots(const TriangleMesh& mesh) {
   const std::size_t half = mesh.triangles.size() / 2;
   UnionFind first(mesh.vertices.size()), second(mesh.vertices.size());
@@ -59,6 +60,8 @@ std::vector<std::uint32_t> componentRoots(const TriangleMesh& mesh) {
   for (std::size_t v = 0; v < root.size(); ++v) root[v] = root[root[v]];
   return root;
 }
+
+namespace {
 
 void removeUnreferencedVertices(TriangleMesh& mesh) {
   std::vector<std::uint32_t> remap(mesh.vertices.size(), std::uint32_t(-1));

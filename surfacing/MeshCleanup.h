@@ -23,6 +23,8 @@
 #include "libsph/io/TriangleMesh.h"
 
 #include <cstddef>
+#include <cstdint>
+#include <vector>
 
 namespace cascade::surfacing {
 
@@ -42,5 +44,8 @@ MeshCleanupStats cleanupMesh(TriangleMesh& mesh, const MeshCleanupSettings& sett
 
 /// Signed volume enclosed by a closed, consistently oriented mesh (m^3).
 double meshVolume(const TriangleMesh& mesh);
+
+/// The root (smallest vertex index) of each vertex's vertex-connected component.
+std::vector<std::uint32_t> componentRoots(const TriangleMesh& mesh);
 
 } // namespace cascade::surfacing

@@ -1,5 +1,6 @@
 // Adaptive meshing (SurfaceOptions::adaptivity, OpenVDB volumeToMesh): on a pool
-// of still water and on a ball it cuts the triangles, stays within half a voxel
+// of still water, a ball, a pool with a spike and drops, and a pool under random
+// spray it cuts the triangles, stays within half a voxel
 // of the uniform mesh (Hausdorff distance, surfacing/MeshChecks.h), and is closed,
 // manifold and free of self-intersections (CGAL) where the uniform mesh is.
 #include "SurfacingTestUtil.h"
@@ -9,6 +10,8 @@
 #include "surfacing/SurfaceStage.h"
 
 #include <gtest/gtest.h>
+
+#include <random>
 
 using namespace cascade;
 using namespace cascade::surfacing;
@@ -26,6 +29,27 @@ struct AdaptiveCase {
 void PrintTo(const AdaptiveCase& c, std::ostream* os) { *os << c.name; }
 
 std::vector<Vec3r> pool() { return test::latticeBlock(Vec3d(0, 0, 0), 40, 30, 8, kSpacing, 0.05 * kSpacing); }
+/// A pool with spray: a thin spike (one particle across, 6 high) rising from it, and
+/// single drops above it. Merging the flat water around the spike's foot may span it
+/// with a tent of triangles; the drops must come out as the uniform mesh makes them.
+std::vector<Vec3r> poolWithSpray() {
+  std::vector<Vec3r> points = pool();
+  const double top = 7 * kSpacing;
+  for (int k = 1; k <= 6; ++k) points.emplace_back(Real(20.3 * kSpacing), Real(15.2 * kSpacing), Real(top + k * kSpacing));
+  for (int d = 0; d < 12; ++d)
+    points.emplace_back(Real((3.1 + 3 * d) * kSpacing), Real((4.3 + 2 * d) * kSpacing), Real(top + (3.5 + 0.25 * d) * kSpacing));
+  return points;
+}
+/// The same pool under random spray: 150 particles scattered just above it (seeded),
+/// touching the water and each other by chance: drops, pairs, necks and bumps.
+std::vector<Vec3r> poolUnderRandomSpray() {
+  std::vector<Vec3r> points = pool();
+  std::mt19937 random(2026);
+  std::uniform_real_distribution<double> x(1 * kSpacing, 39 * kSpacing), y(1 * kSpacing, 29 * kSpacing),
+      z(7.6 * kSpacing, 10 * kSpacing);
+  for (int k = 0; k < 150; ++k) points.emplace_back(Real(x(random)), Real(y(random)), Real(z(random)));
+  return points;
+}
 std::vector<Vec3r> ball() { return test::latticeBall(Vec3d(0.3, 0.2, 0.1), 10 * kSpacing, kSpacing, 0.05 * kSpacing); }
 
 class AdaptiveMesh : public ::testing::TestWithParam<AdaptiveCase> {};
@@ -54,7 +78,9 @@ TEST_P(AdaptiveMesh, FewerTrianglesWithinHalfAVoxelClosedAndNotSelfIntersecting)
 }
 
 INSTANTIATE_TEST_SUITE_P(Shapes, AdaptiveMesh,
-                         ::testing::Values(AdaptiveCase{"pool", &pool, 3.0}, AdaptiveCase{"ball", &ball, 2.5}),
+                         ::testing::Values(AdaptiveCase{"pool", &pool, 3.0}, AdaptiveCase{"ball", &ball, 2.5},
+                                           AdaptiveCase{"pool_with_spray", &poolWithSpray, 2.5},
+                                           AdaptiveCase{"pool_under_random_spray", &poolUnderRandomSpray, 1.8}),
                          [](const auto& info) { return std::string(info.param.name); });
 
 TEST(MeshChecks, HausdorffDistanceOfAShiftedMeshIsTheShift) {
