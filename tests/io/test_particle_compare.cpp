@@ -1,10 +1,11 @@
 // Two particle caches side by side (ParticleCompare.h, `cascade inspect A --against B`):
 // exact differences for frames that differ by known moves, order, extra and
-// missing particles; exit 2 when a file cannot be read.
+// missing particles; exit 2 when a file cannot be read; two meshes' Hausdorff distance.
 #include "bake/CascadeProcess.h"
 #include "TestTempDir.h"
 #include "libsph/Errors.h"
 #include "libsph/io/ParticleCompare.h"
+#include "libsph/io/TriangleMesh.h"
 
 #include <gtest/gtest.h>
 
@@ -90,4 +91,41 @@ TEST(ParticleCompare, InspectAgainstPrintsTheDifferencesAndExits2OnAnUnreadableF
   const std::string line = test::readLog(bad);
   EXPECT_EQ(line.find('\n'), line.size() - 1) << line;
   EXPECT_NE(line.find("broken.vdb"), std::string::npos) << line;
+}
+
+namespace {
+/// The unit cube [0, 1]^3 raised by `dz`, two triangles a face, outward.
+TriangleMesh cube(float dz) {
+  TriangleMesh mesh;
+  for (int k = 0; k < 8; ++k) mesh.vertices.emplace_back(float(k & 1), float((k >> 1) & 1), float((k >> 2) & 1) + dz);
+  const std::uint32_t faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& f : faces) {
+    mesh.triangles.push_back({f[0], f[1], f[2]});
+    mesh.triangles.push_back({f[0], f[2], f[3]});
+  }
+  return mesh;
+}
+} // namespace
+
+// Two meshes (an OBJ and a PLY): the symmetric Hausdorff distance. A unit cube against
+// itself raised by 0.25: its bottom corners are 0.25 from the raised cube, nothing further.
+TEST(ParticleCompare, InspectAgainstTwoMeshesPrintsTheirHausdorffDistance) {
+  const fs::path dir = test::freshTempDir("compare_meshes");
+  writeObj(dir / "a.obj", cube(0));
+  writePly(dir / "b.ply", cube(0.25f));
+  const fs::path log = dir / "inspect.log";
+  ASSERT_EQ(test::run({"inspect", (dir / "a.obj").string(), "--against", (dir / "b.ply").string()}, log), 0)
+      << test::readLog(log);
+  const std::string text = test::readLog(log);
+  EXPECT_NE(text.find("triangles: 12 12\n"), std::string::npos) << text;
+  const std::size_t at = text.find("hausdorff_distance_m: ");
+  ASSERT_NE(at, std::string::npos) << text;
+  EXPECT_NEAR(std::stod(text.substr(at + 22)), 0.25, 1e-6) << text;
+  // A mesh against a particle cache: one line, exit 2.
+  writeParticleFrame(dir / "p.vdb", lattice(10));
+  const fs::path bad = dir / "bad.log";
+  EXPECT_EQ(test::run({"inspect", (dir / "a.obj").string(), "--against", (dir / "p.vdb").string()}, bad), 2);
+  const std::string line = test::readLog(bad);
+  EXPECT_EQ(line.find('\n'), line.size() - 1) << line;
+  EXPECT_NE(line.find("a mesh and a particle cache do not compare"), std::string::npos) << line;
 }

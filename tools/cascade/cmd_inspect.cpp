@@ -1,6 +1,7 @@
 // `cascade inspect FILE` (docs/cli.md): what a particle cache, VDB level set
 // or OBJ / PLY mesh holds; for a particle cache also a checksum over positions and
-// velocities in id order (libsph/io/ParticleCache.h).
+// velocities in id order (libsph/io/ParticleCache.h). `--against B`: two particle
+// caches matched by id, or two meshes' Hausdorff distance.
 #include "Commands.h"
 
 #include "libsph/Errors.h"
@@ -9,6 +10,7 @@
 #include "libsph/io/Ply.h"
 #include "libsph/io/TriangleMesh.h"
 #include "libsph/io/VdbFile.h"
+#include "surfacing/MeshChecks.h"
 
 #include "whitewater/WhitewaterFile.h"
 
@@ -199,20 +201,40 @@ void compareParticles(const fs::path& a, const fs::path& b) {
   std::printf("time: %.9g %.9g s\n", frameA.time, frameB.time);
 }
 
+/// `--against B` for two meshes: their symmetric Hausdorff distance (MeshChecks.h).
+void compareMeshes(const fs::path& a, const fs::path& b) {
+  const TriangleMesh meshA = readMesh(a), meshB = readMesh(b);
+  std::printf("file: %s\nagainst: %s\n", a.string().c_str(), b.string().c_str());
+  std::printf("triangles: %zu %zu\n", meshA.triangles.size(), meshB.triangles.size());
+  std::printf("vertices: %zu %zu\n", meshA.vertices.size(), meshB.vertices.size());
+  if (meshA.triangles.empty() || meshB.triangles.empty())
+    throw InputError((meshA.triangles.empty() ? a : b).string() + ": a mesh with no triangles has no distance to another");
+  std::printf("hausdorff_distance_m: %.9g\n", surfacing::hausdorffDistance(meshA, meshB));
+}
+
+bool isMesh(const fs::path& path) {
+  return path.extension() == ".obj" || (path.extension() == ".ply" && plyHasFaces(path));
+}
+
 void addInspectCommand(CLI::App& app) {
   CLI::App* command = app.add_subcommand("inspect", "Show what a particle cache, VDB, OBJ or PLY file holds");
   auto file = std::make_shared<std::string>();
   auto against = std::make_shared<std::string>();
   command->add_option("file", *file, "A file: particles.NNNN.vdb | .ply | surface.NNNN.vdb | fluid.NNNN.obj | .ply | whitewater.NNNN.vdb")->required();
   command->add_option("--against", *against,
-                      "Another particle cache: match the particles by id, print the position differences");
+                      "Another particle cache (match the particles by id, print the position differences) or "
+                      "mesh (print the Hausdorff distance)");
   command->callback([file, against] {
     const fs::path path(*file);
     std::error_code error;
     if (!fs::is_regular_file(path, error)) throw InputError(path.string() + ": file not found");
     if (!against->empty()) {
       if (!fs::is_regular_file(*against, error)) throw InputError(*against + ": file not found");
-      return compareParticles(path, *against);
+      const bool meshA = isMesh(path), meshB = isMesh(*against);
+      if (meshA != meshB)
+        throw InputError(path.string() + " against " + *against + ": " + (meshA ? "a mesh" : "a particle cache") +
+                         " and " + (meshB ? "a mesh" : "a particle cache") + " do not compare");
+      return meshA ? compareMeshes(path, *against) : compareParticles(path, *against);
     }
     const std::string extension = path.extension().string();
     if (extension == ".vdb") inspectVdb(path);
