@@ -875,7 +875,7 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   // Over ranks the sums below are collective: every rank takes part, with or without a layer.
   if ((!layer.empty() && !maps.empty()) || (mPartition && boundaryCount > 0)) {
     // Everything the walls did to the fluid this step, as forces on them (the negative
-    // of the impulse each wall gave the fluid, over dt), summed in fixed chunks in order:
+    // of the impulse each wall gave the fluid, over dt), summed as ReactionSums.h does:
     // - the mirror pairs' pressure: m (kappa_i + kappa_j) V grad W_ij' with kappa the step's
     //   total (divergence and density solves);
     // - the mirror pairs' viscous terms (mGhostViscous);
