@@ -204,11 +204,11 @@ void compareParticles(const fs::path& a, const fs::path& b) {
 /// `--against B` for two meshes: their symmetric Hausdorff distance (MeshChecks.h).
 void compareMeshes(const fs::path& a, const fs::path& b) {
   const TriangleMesh meshA = readMesh(a), meshB = readMesh(b);
+  if (meshA.triangles.empty() || meshB.triangles.empty())
+    throw InputError((meshA.triangles.empty() ? a : b).string() + ": a mesh with no triangles has no distance to another");
   std::printf("file: %s\nagainst: %s\n", a.string().c_str(), b.string().c_str());
   std::printf("triangles: %zu %zu\n", meshA.triangles.size(), meshB.triangles.size());
   std::printf("vertices: %zu %zu\n", meshA.vertices.size(), meshB.vertices.size());
-  if (meshA.triangles.empty() || meshB.triangles.empty())
-    throw InputError((meshA.triangles.empty() ? a : b).string() + ": a mesh with no triangles has no distance to another");
   std::printf("hausdorff_distance_m: %.9g\n", surfacing::hausdorffDistance(meshA, meshB));
 }
 
