@@ -136,12 +136,12 @@ TriangleMesh mergedPart(const TriangleMesh& mesh, const std::vector<openvdb::Coo
   });
   // Merged triangles by bucket of 8^3 cells (a leaf), then every triangle against them.
   const auto bucketOf = [](const openvdb::Coord& c) { return openvdb::Coord(c.x() >> 3, c.y() >> 3, c.z() >> 3); };
-  std::unordered_map<openvdb::Coord, std::vector<std::uint32_t>> buckets;
+  std::unordered_map<openvdb::Coord, std::vector<openvdb::CoordBBox>> buckets;  // merged triangles' cell boxes
   for (std::size_t t = 0; t < n; ++t) {
     if (!merged[t]) continue;
     const openvdb::CoordBBox box = cellBox(mesh.triangles[t], cell);
     const openvdb::CoordBBox range(bucketOf(box.min()), bucketOf(box.max()));
-    for (auto b = range.beginXYZ(); b; ++b) buckets[*b].push_back(std::uint32_t(t));
+    for (auto b = range.beginXYZ(); b; ++b) buckets[*b].push_back(box);
   }
   std::vector<char> near = merged;
   if (!buckets.empty())
@@ -153,8 +153,8 @@ TriangleMesh mergedPart(const TriangleMesh& mesh, const std::vector<openvdb::Coo
         for (auto b = around.beginXYZ(); b && !near[t]; ++b) {
           const auto found = buckets.find(*b);
           if (found == buckets.end()) continue;
-          for (std::uint32_t m : found->second)
-            if (box.hasOverlap(cellBox(mesh.triangles[m], cell))) {
+          for (const openvdb::CoordBBox& mergedBox : found->second)
+            if (box.hasOverlap(mergedBox)) {
               near[t] = 1;
               break;
             }

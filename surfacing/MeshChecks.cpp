@@ -29,15 +29,31 @@ using Tree = CGAL::AABB_tree<CGAL::AABB_traits<CgalKernel, Primitive>>;
 
 Point point(const Eigen::Vector3f& v) { return Point(v.x(), v.y(), v.z()); }
 
+/// A mesh's triangles in a CGAL AABB tree ready for distance queries (the tree refers
+/// to the list it holds, so it stays where it was built).
+class TriangleTree {
+public:
+  explicit TriangleTree(const TriangleMesh& mesh) {
+    mTriangles.reserve(mesh.triangles.size());
+    for (const auto& t : mesh.triangles)
+      mTriangles.emplace_back(point(mesh.vertices[t[0]]), point(mesh.vertices[t[1]]), point(mesh.vertices[t[2]]));
+    mTree.insert(mTriangles.begin(), mTriangles.end());
+    mTree.build();
+    mTree.accelerate_distance_queries();
+  }
+  TriangleTree(const TriangleTree&) = delete;
+  TriangleTree& operator=(const TriangleTree&) = delete;
+  double squaredDistance(const Point& p) const { return mTree.squared_distance(p); }
+
+private:
+  TriangleList mTriangles;
+  Tree mTree;
+};
+
 /// h(a, b): the largest distance from a's vertices and centroids to b's triangles.
 double directedDistance(const TriangleMesh& a, const TriangleMesh& b) {
   if (a.vertices.empty() || b.triangles.empty()) return a.vertices.empty() ? 0.0 : INFINITY;
-  TriangleList triangles;
-  triangles.reserve(b.triangles.size());
-  for (const auto& t : b.triangles)
-    triangles.emplace_back(point(b.vertices[t[0]]), point(b.vertices[t[1]]), point(b.vertices[t[2]]));
-  Tree tree(triangles.begin(), triangles.end());
-  tree.accelerate_distance_queries();
+  const TriangleTree tree(b);
   const std::size_t samples = a.vertices.size() + a.triangles.size();
   const double squared = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, samples, 4096), 0.0,
@@ -50,7 +66,7 @@ double directedDistance(const TriangleMesh& a, const TriangleMesh& b) {
             const auto& t = a.triangles[i - a.vertices.size()];
             sample = point((a.vertices[t[0]] + a.vertices[t[1]] + a.vertices[t[2]]) / 3.0f);
           }
-          worst = std::max(worst, tree.squared_distance(sample));
+          worst = std::max(worst, tree.squaredDistance(sample));
         }
         return worst;
       },
@@ -90,16 +106,11 @@ std::vector<std::size_t> pointsFartherThan(const std::vector<Eigen::Vector3f>& p
   std::vector<std::size_t> all(points.size());
   for (std::size_t i = 0; i < all.size(); ++i) all[i] = i;
   if (mesh.triangles.empty()) return all;
-  TriangleList triangles;
-  triangles.reserve(mesh.triangles.size());
-  for (const auto& t : mesh.triangles)
-    triangles.emplace_back(point(mesh.vertices[t[0]]), point(mesh.vertices[t[1]]), point(mesh.vertices[t[2]]));
-  Tree tree(triangles.begin(), triangles.end());
-  tree.accelerate_distance_queries();
+  const TriangleTree tree(mesh);
   std::vector<char> far(points.size(), 0);
   const double squared = distance * distance;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 1024), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) far[i] = tree.squared_distance(point(points[i])) > squared;
+    for (std::size_t i = range.begin(); i != range.end(); ++i) far[i] = tree.squaredDistance(point(points[i])) > squared;
   });
   std::vector<std::size_t> result;
   for (std::size_t i = 0; i < far.size(); ++i)
