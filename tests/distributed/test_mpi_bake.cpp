@@ -65,22 +65,34 @@ std::size_t occurrences(const std::string& text, const std::string& part) {
   return count;
 }
 
+/// `scene` baked on 1, 2 and 3 ranks into dir/np1, np2, np3; each bake succeeds and logs its rank count.
+std::vector<fs::path> bakeOnOneTwoAndThreeRanks(const fs::path& dir, const std::string& scene,
+                                                const std::string& extra = "") {
+  std::vector<fs::path> outs;
+  for (int ranks : {1, 2, 3}) {
+    outs.push_back(dir / ("np" + std::to_string(ranks)));
+    const Result result = bake(ranks, scene, outs.back(), extra);
+    EXPECT_EQ(result.status, 0) << result.output;
+    EXPECT_NE(result.output.find(std::to_string(ranks) + " MPI rank"), std::string::npos) << result.output;
+  }
+  return outs;
+}
+
+/// The 2- and 3-rank caches of `frames` have the 1-rank cache's checksum.
+void expectEqualFrames(const std::vector<fs::path>& outs, const std::vector<int>& frames) {
+  for (int frame : frames) {
+    EXPECT_EQ(checksum(outs[1], frame), checksum(outs[0], frame)) << "frame " << frame;
+    EXPECT_EQ(checksum(outs[2], frame), checksum(outs[0], frame)) << "frame " << frame;
+  }
+}
+
 } // namespace
 
 TEST(MpiBake, DamBreakOnOneTwoAndThreeRanksIsBitIdenticalEveryFrame) {
   const fs::path dir = test::freshTempDir("mpi_dambreak");
-  std::vector<fs::path> outs;
-  for (int ranks : {1, 2, 3}) {
-    outs.push_back(dir / ("np" + std::to_string(ranks)));
-    const Result result = bake(ranks, "dambreak.json", outs.back());
-    ASSERT_EQ(result.status, 0) << result.output;
-    EXPECT_NE(result.output.find(std::to_string(ranks) + " MPI rank"), std::string::npos) << result.output;
-  }
-  for (int frame = 1; frame <= 18; ++frame) {
-    const std::uint64_t one = checksum(outs[0], frame);
-    EXPECT_EQ(checksum(outs[1], frame), one) << "frame " << frame;
-    EXPECT_EQ(checksum(outs[2], frame), one) << "frame " << frame;
-  }
+  const std::vector<fs::path> outs = bakeOnOneTwoAndThreeRanks(dir, "dambreak.json");
+  ASSERT_FALSE(HasFailure());
+  expectEqualFrames(outs, {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18});
   EXPECT_EQ(readParticleFrame(outs[2] / "particles" / "particles.0018.vdb").size(), 968u);
   // The probes too (front and column height), sampled from all ranks' particles.
   EXPECT_EQ(readLog(outs[1] / "probes.csv"), readLog(outs[0] / "probes.csv"));
@@ -116,16 +128,9 @@ TEST(MpiBake, BunnyWithRankBoundariesThroughTheObstacleAndTheEmitterEqualsOneRan
 TEST(MpiBake, DfsphOnOneTwoAndThreeRanksIsBitIdenticalAndResumesOnAnotherCount) {
   const fs::path dir = test::freshTempDir("mpi_dfsph");
   const std::string dfsph = "--set solver.type=dfsph";
-  std::vector<fs::path> outs;
-  for (int ranks : {1, 2, 3}) {
-    outs.push_back(dir / ("np" + std::to_string(ranks)));
-    const Result result = bake(ranks, "dambreak.json", outs.back(), dfsph);
-    ASSERT_EQ(result.status, 0) << result.output;
-  }
-  for (int frame : {1, 6, 12, 18}) {
-    EXPECT_EQ(checksum(outs[1], frame), checksum(outs[0], frame)) << "frame " << frame;
-    EXPECT_EQ(checksum(outs[2], frame), checksum(outs[0], frame)) << "frame " << frame;
-  }
+  const std::vector<fs::path> outs = bakeOnOneTwoAndThreeRanks(dir, "dambreak.json", dfsph);
+  ASSERT_FALSE(HasFailure());
+  expectEqualFrames(outs, {1, 6, 12, 18});
   // The checkpoint holds the solver's warm starts of every rank's particles.
   const Result first = bake(2, "dambreak.json", dir / "split", dfsph + " --frames 1-9");
   ASSERT_EQ(first.status, 0) << first.output;
@@ -148,16 +153,9 @@ TEST(MpiBake, DfsphOnOneTwoAndThreeRanksIsBitIdenticalAndResumesOnAnotherCount) 
 TEST(MpiBake, AFloatingBodyOnOneTwoAndThreeRanksIsBitIdenticalAndResumesOnAnotherCount) {
   const fs::path dir = test::freshTempDir("mpi_body");
   const std::string shot = "--set output.end_time=0.6";
-  std::vector<fs::path> outs;
-  for (int ranks : {1, 2, 3}) {
-    outs.push_back(dir / ("np" + std::to_string(ranks)));
-    const Result result = bake(ranks, "bunny_drop.json", outs.back(), shot);
-    ASSERT_EQ(result.status, 0) << result.output;
-  }
-  for (int frame : {6, 12, 18}) {
-    EXPECT_EQ(checksum(outs[1], frame), checksum(outs[0], frame)) << "frame " << frame;
-    EXPECT_EQ(checksum(outs[2], frame), checksum(outs[0], frame)) << "frame " << frame;
-  }
+  const std::vector<fs::path> outs = bakeOnOneTwoAndThreeRanks(dir, "bunny_drop.json", shot);
+  ASSERT_FALSE(HasFailure());
+  expectEqualFrames(outs, {6, 12, 18});
   const std::string probes = readLog(outs[0] / "probes.csv");
   EXPECT_EQ(readLog(outs[1] / "probes.csv"), probes);
   EXPECT_EQ(readLog(outs[2] / "probes.csv"), probes);
