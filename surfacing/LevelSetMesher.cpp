@@ -9,11 +9,13 @@
 #include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <array>
 #include <cstdio>
 #include <cstdlib>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace cascade::surfacing {
@@ -207,7 +209,207 @@ std::vector<openvdb::Coord> uncoveredCells(const TriangleMesh& uniform, const st
   return cells;
 }
 
+/// Whether every two of the unit vectors `n[0..count)` satisfy 1 - n_i . n_j <= limit
+/// (VolumeToMesh's isMergeable), without the pairwise scan where a cone decides: all
+/// within an angle theta of their mean keeps every pair within 2 theta; the vector
+/// furthest from the mean is the likeliest to fail against another.
+bool withinLimit(const openvdb::Vec3s* n, std::size_t count, float limit) {
+  openvdb::Vec3s mean(0.0f);
+  for (std::size_t i = 0; i < count; ++i) mean += n[i];
+  mean.normalize();
+  float nearest = 1;  // cos theta of the furthest
+  std::size_t furthest = 0;
+  for (std::size_t i = 0; i < count; ++i)
+    if (const float c = n[i].dot(mean); c < nearest) nearest = c, furthest = i;
+  if (nearest > 0 && 2 * (1 - nearest * nearest) <= limit) return true;  // 1 - cos 2 theta
+  for (std::size_t j = 0; j < count; ++j)
+    if (1.0f - n[furthest].dot(n[j]) > limit) return false;
+  for (std::size_t i = 0; i < count; ++i)
+    for (std::size_t j = i + 1; j < count; ++j)
+      if (1.0f - n[i].dot(n[j]) > limit) return false;
+  return true;
+}
+
+/// Morton order of a leaf's 8^3 cells by VDB offset (x << 6) | (y << 3) | z: the cells
+/// of each sub-block of 2, 4 (and 8) cells are then contiguous, a cell's sub-block at
+/// level k (2^k cells across) being its code >> 3k.
+const std::array<std::uint16_t, 512>& mortonCodes() {
+  static const std::array<std::uint16_t, 512> table = [] {
+    std::array<std::uint16_t, 512> code{};
+    for (int offset = 0; offset < 512; ++offset)
+      for (int b = 0; b < 3; ++b)
+        code[std::size_t(offset)] |= std::uint16_t(((offset >> (6 + b) & 1) << (3 * b + 2)) |
+                                                   ((offset >> (3 + b) & 1) << (3 * b + 1)) | ((offset >> b & 1) << (3 * b)));
+    return code;
+  }();
+  return table;
+}
+
+/// The vertices OpenVDB's VolumeToMesh would make at an adaptivity, for one block of
+/// 8^3 cells (aligned with the leaves) of a uniform mesh: its merging test
+/// (MergeVoxelRegions) replayed on the cells holding the uniform mesh's vertices. Blocks
+/// of 2, then 4, then 8 cells merge into one vertex when every sub-block merged and the
+/// level set's normals at their cells (central differences at the cells' lower corners,
+/// as VolumeToMesh takes them) are all within 1 - n_i . n_j <= adaptivity of each
+/// other; a cell with two or more vertices (an ambiguous case) never merges.
+class BlockMergeEstimate {
+public:
+  using FloatLeaf = openvdb::FloatTree::LeafNodeType;
+  static constexpr int D = FloatLeaf::DIM;
+  static_assert(D == 8, "blocks of 8^3 cells, offsets (x << 6) | (y << 3) | z");
+
+  explicit BlockMergeEstimate(float adaptivity) : mLimit(adaptivity) {}
+
+  static openvdb::Coord blockOf(const openvdb::Coord& c) {
+    return openvdb::Coord(c.x() & ~(D - 1), c.y() & ~(D - 1), c.z() & ~(D - 1));
+  }
+
+  /// Vertices of the block at `origin` once merged, from the cells of its `count`
+  /// uniform vertices.
+  std::size_t vertices(const openvdb::Coord& origin, const openvdb::Coord* cell, std::size_t count,
+                       openvdb::FloatGrid::ConstAccessor& phi) {
+    const std::array<std::uint16_t, 512>& morton = mortonCodes();
+    for (std::size_t v = 0; v < count; ++v) {
+      const int offset = ((cell[v].x() - origin.x()) << 6) | ((cell[v].y() - origin.y()) << 3) | (cell[v].z() - origin.z());
+      const std::uint16_t code = morton[std::size_t(offset)];
+      if (mCount[code]++ == 0) {
+        mOffset[code] = std::uint16_t(offset);
+        mPresent[code >> 6] |= std::uint64_t(1) << (code & 63);
+      }
+    }
+    mCode.clear();
+    for (std::size_t word = 0; word < mPresent.size(); ++word) {
+      for (std::uint64_t bits = mPresent[word]; bits; bits &= bits - 1)
+        mCode.push_back(std::uint16_t(word * 64 + std::size_t(__builtin_ctzll(bits))));
+      mPresent[word] = 0;
+    }
+    placeNormals(origin, phi);
+    const std::size_t result = merge(0, mCode.size(), 3).second;
+    for (std::uint16_t code : mCode) mCount[code] = 0;
+    return result;
+  }
+
+private:
+  /// Normals at the cells in use, read from the block's leaf and its six face
+  /// neighbours (the accessor where one is missing).
+  void placeNormals(const openvdb::Coord& origin, openvdb::FloatGrid::ConstAccessor& phi) {
+    std::array<const FloatLeaf*, 7> leaf{};  // this one, then -x, +x, -y, +y, -z, +z
+    leaf[0] = phi.probeConstLeaf(origin);
+    for (int axis = 0; axis < 3; ++axis)
+      for (int side = 0; side < 2; ++side) {
+        openvdb::Coord next = origin;
+        next[axis] += side ? D : -D;
+        leaf[std::size_t(1 + 2 * axis + side)] = phi.probeConstLeaf(next);
+      }
+    mNormal.resize(mCode.size());
+    for (std::size_t i = 0; i < mCode.size(); ++i) {
+      const int offset = mOffset[mCode[i]];
+      const int local[3] = {offset >> 6, offset >> 3 & 7, offset & 7};
+      openvdb::Vec3s n;
+      for (int axis = 0; axis < 3; ++axis) {
+        const int stride = 1 << (3 * (2 - axis));
+        float ends[2];
+        for (int side = 0; side < 2; ++side) {
+          const FloatLeaf* owner = leaf[0];
+          int at = offset + (side ? stride : -stride);
+          if (const int next = local[axis] + (side ? 1 : -1); next < 0 || next >= D) {  // the next leaf's far layer
+            owner = leaf[std::size_t(1 + 2 * axis + side)];
+            at = side ? offset - (D - 1) * stride : offset + (D - 1) * stride;
+          }
+          if (owner) {
+            ends[side] = owner->getValue(openvdb::Index(at));
+          } else {
+            openvdb::Coord ijk = origin.offsetBy(local[0], local[1], local[2]);
+            ijk[axis] += side ? 1 : -1;
+            ends[side] = phi.getValue(ijk);
+          }
+        }
+        n[axis] = ends[1] - ends[0];
+      }
+      n.normalize();
+      mNormal[i] = n;
+    }
+  }
+
+  /// The sub-block of `level` (2^level cells across) over codes [begin, end):
+  /// {merged, vertices}, from its eight parts' results.
+  std::pair<bool, std::size_t> merge(std::size_t begin, std::size_t end, int level) const {
+    if (level == 0) {
+      const std::uint8_t n = mCount[mCode[begin]];
+      return {n <= 1, n};
+    }
+    bool merged = true;
+    std::size_t vertices = 0;
+    for (std::size_t part = begin; part < end;) {
+      const int key = mCode[part] >> (3 * (level - 1));
+      std::size_t next = part + 1;
+      while (next < end && mCode[next] >> (3 * (level - 1)) == key) ++next;
+      const auto [partMerged, partVertices] = merge(part, next, level - 1);
+      merged = merged && partMerged;
+      vertices += partVertices;
+      part = next;
+    }
+    if (!merged || vertices <= 1) return {merged, vertices};
+    if (withinLimit(mNormal.data() + begin, end - begin, mLimit)) return {true, 1};
+    return {false, vertices};
+  }
+
+  float mLimit;
+  std::array<std::uint8_t, 512> mCount{};    // vertices per cell, by Morton code
+  std::array<std::uint16_t, 512> mOffset{};  // VDB offset, by Morton code
+  std::array<std::uint64_t, 8> mPresent{};   // Morton codes in use
+  std::vector<std::uint16_t> mCode;          // in use, ascending
+  std::vector<openvdb::Vec3s> mNormal;       // of each code in use
+};
+
 } // namespace
+
+double estimatedAdaptiveCut(const TriangleMesh& uniform, const openvdb::FloatGrid& grid, double adaptivity) {
+  constexpr std::size_t kChunk = 1024, kExact = std::size_t(1) << 18;
+  const std::size_t n = uniform.vertices.size();
+  if (n == 0) return 1;
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  const std::size_t stride = std::max<std::size_t>(1, n / kExact);
+  const openvdb::math::Transform& transform = grid.transform();
+  const auto cellOf = [&](std::size_t v) {
+    const Eigen::Vector3f& p = uniform.vertices[v];
+    return openvdb::Coord::floor(transform.worldToIndex(openvdb::Vec3d(p.x(), p.y(), p.z())));
+  };
+  using Counts = std::pair<std::size_t, std::size_t>;  // uniform vertices, estimated vertices
+  const Counts counts = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, (chunks + stride - 1) / stride, 1), Counts(0, 0),
+      [&](const auto& range, Counts sum) {
+        openvdb::FloatGrid::ConstAccessor phi = grid.getConstAccessor();
+        BlockMergeEstimate estimate{float(adaptivity)};
+        std::vector<openvdb::Coord> cell;
+        for (std::size_t c = range.begin(); c != range.end(); ++c) {
+          // The blocks that start in this chunk, whole.
+          std::size_t begin = c * stride * kChunk;
+          const std::size_t chunkEnd = std::min(n, begin + kChunk);
+          cell.clear();
+          if (begin > 0) {
+            openvdb::Coord before = BlockMergeEstimate::blockOf(cellOf(begin - 1));
+            while (begin < chunkEnd && BlockMergeEstimate::blockOf(cellOf(begin)) == before) ++begin;
+          }
+          for (std::size_t v = begin; v < n; ++v) {
+            const openvdb::Coord ijk = cellOf(v);
+            if (v >= chunkEnd && BlockMergeEstimate::blockOf(ijk) != BlockMergeEstimate::blockOf(cell.back())) break;
+            cell.push_back(ijk);
+          }
+          for (std::size_t run = 0; run < cell.size();) {
+            const openvdb::Coord origin = BlockMergeEstimate::blockOf(cell[run]);
+            std::size_t next = run + 1;
+            while (next < cell.size() && BlockMergeEstimate::blockOf(cell[next]) == origin) ++next;
+            sum.first += next - run;
+            sum.second += estimate.vertices(origin, cell.data() + run, next - run, phi);
+            run = next;
+          }
+        }
+        return sum;
+      },
+      [](Counts a, Counts b) { return Counts(a.first + b.first, a.second + b.second); });
+  return counts.second > 0 ? double(counts.first) / double(counts.second) : 1.0;
+}
 
 TriangleMesh levelSetToMesh(const openvdb::FloatGrid& grid, double adaptivity) {
   if (adaptivity <= 0) return dualContourMesh(grid);
@@ -217,12 +419,21 @@ TriangleMesh levelSetToMesh(const openvdb::FloatGrid& grid, double adaptivity) {
   // different set of specks than the uniform mesh's. Merged cells that stray from the
   // surface or make the mesh cross itself are meshed again with the voxels around them
   // kept unmerged too, until none is left; after kMaxRepairs rounds, the uniform mesh.
-  constexpr int kMaxRepairs = 3;
+  constexpr int kMaxRepairs = 4;
   const double dx = grid.voxelSize()[0];
   const int reach = openvdb::FloatTree::LeafNodeType::DIM / 2;  // a merged cell's reach: half a leaf
   auto mask = std::make_shared<openvdb::BoolTree>(false);
   detail::ProfileClock profile;
   TriangleMesh uniform = dualContourMesh(grid);
+  profile.lap("adaptive: uniform mesh");
+  // Merging bounded by the normals alone would not cut this mesh enough: the uniform
+  // mesh, before any adaptive meshing is paid for (a splash of droplets and sheets).
+  const double cut = estimatedAdaptiveCut(uniform, grid, adaptivity);
+  profile.lap("adaptive: estimate");
+  if (std::getenv("CASCADE_SURFACE_PROFILE"))
+    std::fprintf(stderr, "  profile adaptive estimate: at most %.2fx fewer vertices than %zu uniform\n", cut,
+                 uniform.vertices.size());
+  if (cut < kMinimumAdaptiveCut) return uniform;
   const std::vector<openvdb::Coord> uniformCell = vertexCells(uniform, grid.transform());
   std::size_t droplets = 0;
   for (openvdb::CoordBBox box : smallComponents(uniform, uniformCell, 2 * reach)) {
@@ -254,27 +465,25 @@ TriangleMesh levelSetToMesh(const openvdb::FloatGrid& grid, double adaptivity) {
     const std::vector<openvdb::Coord> uncovered =
         uncoveredCells(uniform, uniformCell, mesh, cell, merged, kAdaptiveTolerance * dx);
     profile.lap("adaptive: uncovered");
-    // A bad triangle among unmerged voxels is the uniform mesh's own: it stays.
-    std::vector<openvdb::Coord> centres;
-    for (std::size_t t : bad) {
-      const auto& c = mesh.triangles[t];
-      const Eigen::Vector3f centroid = (mesh.vertices[c[0]] + mesh.vertices[c[1]] + mesh.vertices[c[2]]) / 3.0f;
-      const openvdb::Coord centre = openvdb::Coord::floor(
-          grid.transform().worldToIndex(openvdb::Vec3d(centroid.x(), centroid.y(), centroid.z())));
-      if (!mask->isValueOn(centre)) centres.push_back(centre);
-    }
+    // Unmerge the regions that made a bad triangle: the cells of its corners (a merged
+    // region's vertex lies in its block; a masked voxel keeps its block of 2 and the
+    // blocks of 4 and 8 around it unmerged), one voxel around them. A triangle whose
+    // corners are all masked is the uniform mesh's own: it stays.
+    std::vector<openvdb::Coord> repair;
+    for (std::size_t t : bad)
+      for (std::uint32_t corner : mesh.triangles[t])
+        if (!mask->isValueOn(cell[corner])) repair.push_back(cell[corner]);
     for (const openvdb::Coord& c : uncovered)
-      if (!mask->isValueOn(c)) centres.push_back(c);
+      if (!mask->isValueOn(c)) repair.push_back(c);
     if (std::getenv("CASCADE_SURFACE_PROFILE"))
       std::fprintf(stderr,
                    "  profile adaptive round %d: %zu triangles (%zu merged or near), %zu off, %zu crossing, %zu uncovered, "
-                   "%zu droplets, %zu to repair\n",
+                   "%zu droplets, %zu cells to repair\n",
                    round, mesh.triangles.size(), merged.triangles.size(), off, crossing.size(), uncovered.size(),
-                   droplets, centres.size());
-    if (centres.empty()) return mesh;
+                   droplets, repair.size());
+    if (repair.empty()) return mesh;
     if (round == kMaxRepairs) break;
-    for (const openvdb::Coord& centre : centres)
-      mask->sparseFill(openvdb::CoordBBox(centre.offsetBy(-reach), centre.offsetBy(reach)), true, true);
+    for (const openvdb::Coord& c : repair) mask->sparseFill(openvdb::CoordBBox(c.offsetBy(-1), c.offsetBy(1)), true, true);
   }
   return uniform;
 }

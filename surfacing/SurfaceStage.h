@@ -36,6 +36,7 @@
 #include "libsph/Types.h"
 #include "libsph/io/OutputLayout.h"
 #include "libsph/io/TriangleMesh.h"
+#include "libsph/scene/Scene.h"
 
 #include <cstddef>
 #include <filesystem>
@@ -85,8 +86,9 @@ struct SurfaceOptions {
   SurfaceMethod method = SurfaceMethod::AnisotropicKernels;
   SurfaceFilter filter = SurfaceFilter::MeanCurvature;
   int smoothingPasses = 1;
-  /// volumeToMesh adaptivity in [0, 1]: 0 uniform, 1 fully adaptive.
-  double adaptivity = 0;
+  /// volumeToMesh adaptivity in [0, 1]: 0 uniform, 1 fully adaptive (LevelSetMesher.h
+  /// bounds its error; scene::kDefaultMeshAdaptivity says why this default).
+  double adaptivity = scene::kDefaultMeshAdaptivity;
   /// If > 0, decimate (CGAL edge collapse) meshes with more triangles than this.
   std::size_t triangleBudget = 0;
   /// If > 0, isotropic remeshing (CGAL) to this target edge length (m).

@@ -162,7 +162,7 @@ const std::vector<KeyDoc>& keyDocs() {
       {"surface.mesh_format", "", "Mesh file format: ASCII OBJ or binary PLY with velocities."},
       {"surface.outputs", "", "Write the level set VDB, the mesh, or `both`."},
       {"surface.velocity", "", "A velocity grid \"v\" in the VDB and per-vertex velocities in PLY meshes (motion blur)."},
-      {"surface.adaptivity", "", "Mesh adaptivity (OpenVDB volumeToMesh): 0 uniform, up to 1 fewest triangles on flat water."},
+      {"surface.adaptivity", "", "Mesh adaptivity (OpenVDB volumeToMesh, within 0.45 voxel of the uniform mesh; the uniform mesh where merging would not cut it 1.5x): 0 uniform, up to 1 fewest triangles on flat water."},
       {"surface.mesh_up", "", "Up axis written in mesh files: `y` for importers (Blender, Houdini), `z` as the scene."},
       {"surface.foam_density", "", "Also a \"foam\" fog grid in the VDB, from the whitewater stage."},
       {"whitewater", "", "Spray, foam and bubbles (Ihmsen et al. 2012) from the caches; `{}` takes every default (docs/whitewater.md). Absent: no whitewater stage."},

@@ -1,15 +1,24 @@
-// Adaptive meshing (SurfaceOptions::adaptivity, OpenVDB volumeToMesh): on a pool
-// of still water, a ball, a pool with a spike and drops, and a pool under random
-// spray it cuts the triangles, stays within half a voxel
-// of the uniform mesh (Hausdorff distance, surfacing/MeshChecks.h), and is closed,
-// manifold and free of self-intersections (CGAL) where the uniform mesh is.
+// Adaptive meshing (SurfaceOptions::adaptivity, OpenVDB volumeToMesh): at the default
+// adaptivity, on a pool of still water, a ball, a pool with a spike and drops, and a
+// pool under random spray it cuts the triangles, stays within half a voxel of the
+// uniform mesh (Hausdorff distance, surfacing/MeshChecks.h), and is closed, manifold
+// and free of self-intersections (CGAL) where the uniform mesh is. The estimate that
+// skips adaptive meshing where it cannot pay (estimatedAdaptiveCut) bounds the cut
+// VolumeToMesh makes, on a box, a ball and a cloud of drops; the cloud gets the
+// uniform mesh, bit for bit.
 #include "SurfacingTestUtil.h"
 
+#include "surfacing/DualContourMesher.h"
+#include "surfacing/LevelSetMesher.h"
 #include "surfacing/MeshChecks.h"
 #include "surfacing/MeshCleanup.h"
 #include "surfacing/SurfaceStage.h"
 
 #include <gtest/gtest.h>
+#include <openvdb/tools/Composite.h>
+#include <openvdb/tools/LevelSetSphere.h>
+#include <openvdb/tools/MeshToVolume.h>
+#include <openvdb/tools/VolumeToMesh.h>
 
 #include <random>
 
@@ -56,12 +65,14 @@ class AdaptiveMesh : public ::testing::TestWithParam<AdaptiveCase> {};
 
 TEST_P(AdaptiveMesh, FewerTrianglesWithinHalfAVoxelClosedAndNotSelfIntersecting) {
   const std::vector<Vec3r> points = GetParam().points();
-  SurfaceOptions options;
-  const SurfaceResult uniform = surfaceParticles(points, kSpacing, options);
+  SurfaceOptions options;  // the default adaptivity
+  SurfaceOptions uniformOptions;
+  uniformOptions.adaptivity = 0;
+  const SurfaceResult uniform = surfaceParticles(points, kSpacing, uniformOptions);
   const MeshTopology uniformTopology = checkMeshTopology(uniform.mesh);
   ASSERT_TRUE(uniformTopology.closed);
   ASSERT_FALSE(uniformTopology.selfIntersecting);
-  options.adaptivity = 0.1;
+  ASSERT_GT(options.adaptivity, 0.0);
   const SurfaceResult adaptive = surfaceParticles(points, kSpacing, options);
   const MeshTopology topology = checkMeshTopology(adaptive.mesh);
   const double cut = double(uniform.mesh.triangles.size()) / double(adaptive.mesh.triangles.size());
@@ -82,6 +93,52 @@ INSTANTIATE_TEST_SUITE_P(Shapes, AdaptiveMesh,
                                            AdaptiveCase{"pool_with_spray", &poolWithSpray, 2.5},
                                            AdaptiveCase{"pool_under_random_spray", &poolUnderRandomSpray, 1.8}),
                          [](const auto& info) { return std::string(info.param.name); });
+
+/// A level set of `voxel` voxels: a box, a ball, or a cloud of small drops (seeded).
+openvdb::FloatGrid::Ptr shapeLevelSet(const std::string& shape, float voxel) {
+  if (shape == "box")
+    return openvdb::tools::createLevelSetBox<openvdb::FloatGrid>(
+        openvdb::math::BBox<openvdb::Vec3s>(openvdb::Vec3s(0.013f, 0.021f, 0.007f), openvdb::Vec3s(0.417f, 0.259f, 0.143f)),
+        *openvdb::math::Transform::createLinearTransform(voxel));
+  if (shape == "ball") return openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(0.2f, openvdb::Vec3f(0.011f, 0.017f, 0.003f), voxel);
+  auto cloud = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(2.5f * voxel, openvdb::Vec3f(0.0f), voxel);
+  std::mt19937 random(7);
+  std::uniform_real_distribution<float> at(0, 60 * voxel), radius(1.2f * voxel, 4 * voxel);
+  for (int k = 0; k < 200; ++k) {
+    auto drop = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(radius(random), openvdb::Vec3f(at(random), at(random), at(random)), voxel);
+    openvdb::tools::csgUnion(*cloud, *drop);
+  }
+  return cloud;
+}
+
+class AdaptiveEstimate : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(AdaptiveEstimate, BoundsTheCutOfVolumeToMesh) {
+  const float voxel = 0.005f;
+  const openvdb::FloatGrid::Ptr grid = shapeLevelSet(GetParam(), voxel);
+  const TriangleMesh uniform = dualContourMesh(*grid);
+  const double adaptivity = SurfaceOptions().adaptivity;
+  const double estimate = estimatedAdaptiveCut(uniform, *grid, adaptivity);
+  openvdb::tools::VolumeToMesh mesher(0.0, adaptivity);
+  mesher(*grid);
+  const double cut = double(uniform.vertices.size()) / double(mesher.pointListSize());
+  std::printf("%s: %zu uniform vertices, %zu adaptive: %.2fx fewer, estimated at most %.2fx\n", GetParam(),
+              uniform.vertices.size(), mesher.pointListSize(), cut, estimate);
+  EXPECT_GE(estimate, cut);
+  EXPECT_LT(estimate, 1.5 * cut);  // and close enough to decide on
+  if (std::string(GetParam()) == "cloud") {
+    // Nothing flat: no adaptive meshing, the uniform mesh itself.
+    EXPECT_LT(estimate, kMinimumAdaptiveCut);
+    const TriangleMesh mesh = levelSetToMesh(*grid, adaptivity);
+    EXPECT_EQ(mesh.vertices, uniform.vertices);
+    EXPECT_EQ(mesh.triangles, uniform.triangles);
+  } else {
+    EXPECT_GT(estimate, 3.0);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Shapes, AdaptiveEstimate, ::testing::Values("box", "ball", "cloud"),
+                         [](const auto& info) { return std::string(info.param); });
 
 TEST(MeshChecks, HausdorffDistanceOfAShiftedMeshIsTheShift) {
   const auto points = test::latticeBall(Vec3d(0, 0, 0), 6 * kSpacing, kSpacing);

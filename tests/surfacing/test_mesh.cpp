@@ -91,6 +91,7 @@ TEST(SurfaceMesh, TriangleBudgetAndRemeshKeepTheBall) {
   const auto points = test::latticeBall(Vec3d(0, 0, 0), 8 * kSpacing, kSpacing);
   const double volume = points.size() * std::pow(kSpacing, 3);
   SurfaceOptions options;
+  options.adaptivity = 0;  // the uniform mesh, decimated and remeshed
   const SurfaceResult full = surfaceParticles(points, kSpacing, options);
   options.triangleBudget = 2000;
   const SurfaceResult decimated = surfaceParticles(points, kSpacing, options);
@@ -109,30 +110,43 @@ TEST(SurfaceMesh, TriangleBudgetAndRemeshKeepTheBall) {
   EXPECT_NEAR(surfacing::meshVolume(remeshed.mesh) / volume, 1.0, 0.05);
 }
 
-TEST(SurfaceMesh, DeterministicAndWorldAligned) {
+/// The largest distance from a vertex of `moved` less `shift` to its nearest vertex of
+/// `mesh` (vertex order follows the tree's traversal).
+double worstShiftError(const TriangleMesh& mesh, const TriangleMesh& moved, const Vec3r& shift) {
+  double worst = 0;
+  for (const Eigen::Vector3f& v : moved.vertices) {
+    double best = 1e9;
+    for (const Eigen::Vector3f& w : mesh.vertices) best = std::min(best, double((v - w - shift).norm()));
+    worst = std::max(worst, best);
+  }
+  return worst;
+}
+
+class WorldAligned : public ::testing::TestWithParam<double> {};
+
+TEST_P(WorldAligned, DeterministicAndMovedByWholeVoxelsOrLeavesExactly) {
   const auto points = test::latticeBall(Vec3d(0.0, 0.0, 0.0), 6 * kSpacing, kSpacing, 0.1 * kSpacing);
   SurfaceOptions options;
+  options.adaptivity = GetParam();
   const SurfaceResult first = surfaceParticles(points, kSpacing, options);
   const SurfaceResult second = surfaceParticles(points, kSpacing, options);
   ASSERT_EQ(first.mesh.vertices, second.mesh.vertices);
   ASSERT_EQ(first.mesh.triangles, second.mesh.triangles);
-  // Moving the particles by whole voxels moves the mesh by exactly as much: the
-  // lattice is the world's, so frames do not shimmer.
+  // Moving the particles by whole voxels moves the uniform mesh by exactly as much:
+  // the lattice is the world's, so frames do not shimmer. Adaptive meshes merge
+  // blocks of the tree's leaves (8 voxels, world aligned too): whole leaves then.
   const double voxel = first.voxelSize;
-  const Vec3r shift = Vec3r(7, -3, 12) * Real(voxel);
+  const Vec3r shift = (options.adaptivity > 0 ? Vec3r(8, -16, 24) : Vec3r(7, -3, 12)) * Real(voxel);
   std::vector<Vec3r> moved = points;
   for (auto& p : moved) p += shift;
   const SurfaceResult shifted = surfaceParticles(moved, kSpacing, options);
-  // Vertex order follows the tree's traversal, so match each vertex to its nearest.
   ASSERT_EQ(shifted.mesh.vertices.size(), first.mesh.vertices.size());
-  double worst = 0;
-  for (const Eigen::Vector3f& v : shifted.mesh.vertices) {
-    double best = 1e9;
-    for (const Eigen::Vector3f& w : first.mesh.vertices) best = std::min(best, double((v - w - shift).norm()));
-    worst = std::max(worst, best);
-  }
-  EXPECT_LT(worst, 1e-3 * voxel);
+  ASSERT_EQ(shifted.mesh.triangles.size(), first.mesh.triangles.size());
+  EXPECT_LT(worstShiftError(first.mesh, shifted.mesh, shift), 1e-3 * voxel);
 }
+
+INSTANTIATE_TEST_SUITE_P(SurfaceMesh, WorldAligned, ::testing::Values(0.0, SurfaceOptions().adaptivity),
+                         [](const auto& info) { return info.param > 0 ? std::string("adaptive") : std::string("uniform"); });
 
 TEST(SurfaceMesh, ObjRoundTripYUp) {
   const auto points = test::latticeBall(Vec3d(0.1, 0.2, 0.3), 5 * kSpacing, kSpacing);

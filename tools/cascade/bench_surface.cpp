@@ -56,20 +56,20 @@ BenchTable benchSurface() {
   fs::create_directories(dir);
   std::cerr << "bench surface: " << points.size() << " particles, voxel " << kVoxel << " m, in " << dir << '\n';
 
-  // The default (anisotropic, OBJ, "v"), then what each choice costs: no "v", binary
-  // PLY, adaptive meshing (its Hausdorff distance to the default's uniform mesh), and
-  // the other methods.
-  double adaptivity = 0.2;
-  // CASCADE_BENCH_SURFACE_ADAPTIVITY=A sets the adaptive row's adaptivity (for comparisons).
+  // The default (anisotropic, OBJ, "v", default adaptivity), then what each choice
+  // costs: no "v", binary PLY, a uniform mesh (adaptivity 0, the reference of the
+  // adaptive meshes' Hausdorff distances), and the other methods.
+  double adaptivity = SurfaceOptions().adaptivity;
+  // CASCADE_BENCH_SURFACE_ADAPTIVITY=A sets the adaptivity of the rows at the default.
   if (const char* value = std::getenv("CASCADE_BENCH_SURFACE_ADAPTIVITY")) adaptivity = std::atof(value);
   const std::vector<Config> configs = {
-      {"anisotropic", SurfaceMethod::AnisotropicKernels, MeshFormat::Obj, true, 0},
-      {"no-v", SurfaceMethod::AnisotropicKernels, MeshFormat::Obj, false, 0},
-      {"ply", SurfaceMethod::AnisotropicKernels, MeshFormat::Ply, true, 0},
-      {"ply-no-v", SurfaceMethod::AnisotropicKernels, MeshFormat::Ply, false, 0},
-      {"adaptive", SurfaceMethod::AnisotropicKernels, MeshFormat::Ply, true, adaptivity},
-      {"smooth", SurfaceMethod::SmoothSpheres, MeshFormat::Obj, true, 0},
-      {"union", SurfaceMethod::UnionOfSpheres, MeshFormat::Obj, true, 0},
+      {"anisotropic", SurfaceMethod::AnisotropicKernels, MeshFormat::Obj, true, adaptivity},
+      {"no-v", SurfaceMethod::AnisotropicKernels, MeshFormat::Obj, false, adaptivity},
+      {"ply", SurfaceMethod::AnisotropicKernels, MeshFormat::Ply, true, adaptivity},
+      {"ply-no-v", SurfaceMethod::AnisotropicKernels, MeshFormat::Ply, false, adaptivity},
+      {"uniform", SurfaceMethod::AnisotropicKernels, MeshFormat::Ply, true, 0},
+      {"smooth", SurfaceMethod::SmoothSpheres, MeshFormat::Obj, true, adaptivity},
+      {"union", SurfaceMethod::UnionOfSpheres, MeshFormat::Obj, true, adaptivity},
   };
   struct Row {
     Config config;
@@ -79,18 +79,21 @@ BenchTable benchSurface() {
     double meshMb, vdbMb, hausdorffVoxels;
   };
   std::vector<Row> rows;
-  // CASCADE_BENCH_SURFACE=anisotropic,no-v,ply,ply-no-v,adaptive,smooth,union,vdb_tool (default: all)
+  // CASCADE_BENCH_SURFACE=anisotropic,no-v,ply,ply-no-v,uniform,smooth,union,vdb_tool (default: all)
   // picks the rows, for profiling.
   const char* only = std::getenv("CASCADE_BENCH_SURFACE");
   const std::string selected =
-      only ? "," + std::string(only) + "," : ",anisotropic,no-v,ply,ply-no-v,adaptive,smooth,union,vdb_tool,";
+      only ? "," + std::string(only) + "," : ",anisotropic,no-v,ply,ply-no-v,uniform,smooth,union,vdb_tool,";
   auto wanted = [&](const std::string& name) { return selected.find("," + name + ",") != std::string::npos; };
   {  // Warm-up (not timed): the first surfacing of a process pays for its page faults.
     SurfaceOptions options;
     options.voxelSize = kVoxel;
     surfaceParticles(points, splash.velocities, kSplashSpacing, options);
   }
-  TriangleMesh uniform;  // the default's mesh, for the adaptive row's distance
+  // The anisotropic meshes at the default adaptivity and the uniform one, for the
+  // Hausdorff distances (filled in once both exist).
+  TriangleMesh uniform, adaptive;
+  std::vector<std::size_t> adaptiveRows;
   for (const Config& config : configs) {
     if (!wanted(config.name)) continue;
     SurfaceOptions options;
@@ -102,13 +105,15 @@ BenchTable benchSurface() {
     const std::clock_t cpuStart = std::clock();
     SurfaceResult result = surfaceParticles(points, splash.velocities, kSplashSpacing, options, dir / "surface.vdb", meshPath);
     const double cpu = double(std::clock() - cpuStart) / CLOCKS_PER_SEC;
-    double hausdorff = -1;
-    if (config.adaptivity > 0 && !uniform.empty())
-      hausdorff = std::round(surfacing::hausdorffDistance(result.mesh, uniform) / kVoxel * 1000) / 1000;
-    if (config.method == SurfaceMethod::AnisotropicKernels && config.adaptivity == 0 && uniform.empty())
-      uniform = result.mesh;
+    if (config.method == SurfaceMethod::AnisotropicKernels) {
+      if (config.adaptivity == 0 && uniform.empty()) uniform = result.mesh;
+      if (config.adaptivity > 0) {
+        if (adaptive.empty()) adaptive = result.mesh;
+        adaptiveRows.push_back(rows.size());
+      }
+    }
     rows.push_back({config, result.timings, cpu, result.mesh.triangles.size(), fs::file_size(meshPath) / 1e6,
-                    fs::file_size(dir / "surface.vdb") / 1e6, hausdorff});
+                    fs::file_size(dir / "surface.vdb") / 1e6, -1.0});
     const std::string label = surfaceMethodName(config.method) + " " + meshFormatName(config.format) + (config.velocity ? " v" : " no-v") +
                               " adaptivity " + std::to_string(config.adaptivity).substr(0, 4);
     // CASCADE_BENCH_SURFACE_KEEP=DIR keeps the outputs (to compare versions).
@@ -122,7 +127,7 @@ BenchTable benchSurface() {
     }
     std::cerr << "bench surface: " << label << ": VDB " << rows.back().vdbMb << " MB (" << result.activeVoxels
               << " active voxels), mesh " << rows.back().meshMb << " MB, " << result.mesh.triangles.size()
-              << " triangles" << (hausdorff >= 0 ? ", Hausdorff " + std::to_string(hausdorff) + " voxels" : "") << "\n";
+              << " triangles\n";
     std::cerr << "bench surface: " << label << " " << milliseconds(result.timings.total())
               << " ms (VDB writer " << milliseconds(result.timings.vdbWrite) << " ms, overlapped); CPU ms by stage: "
               << milliseconds(result.timings.cpu.rasterize) << " " << milliseconds(result.timings.cpu.filter) << " "
@@ -156,6 +161,13 @@ BenchTable benchSurface() {
     } else {
       std::cerr << "bench surface: vdb_tool failed or is missing (status " << status << ")\n";
     }
+  }
+  // Hausdorff distance of the adaptive anisotropic mesh from the uniform one (all such
+  // rows make the same mesh; 0 without a search where merging did not pay).
+  if (!uniform.empty() && !adaptive.empty()) {
+    const bool same = adaptive.vertices == uniform.vertices && adaptive.triangles == uniform.triangles;
+    const double voxels = same ? 0.0 : std::round(surfacing::hausdorffDistance(adaptive, uniform) / kVoxel * 1000) / 1000;
+    for (std::size_t r : adaptiveRows) rows[r].hausdorffVoxels = voxels;
   }
   for (const Row& row : rows) {
     const double total = milliseconds(row.timings.total());

@@ -149,7 +149,9 @@ void addSurfaceCommand(CLI::App& app) {
   command->add_option("--filter", options->filter, "Level-set filter: none | mean-curvature | gaussian | laplacian")
       ->capture_default_str();
   command->add_option("--smoothing", s.smoothingPasses, "Number of filter passes")->capture_default_str();
-  command->add_option("--adaptivity", s.adaptivity, "Mesh adaptivity in [0, 1] (0: uniform)")->capture_default_str();
+  command->add_option("--adaptivity", s.adaptivity,
+                      "Mesh adaptivity in [0, 1]: merge flat cells within 0.45 voxel (0: uniform)")
+      ->capture_default_str();
   command->add_option("--triangles", s.triangleBudget, "Triangle budget: decimate (CGAL) meshes above it (0: off)");
   command->add_option("--remesh", s.remeshEdgeLength, "Isotropic remeshing (CGAL) to this edge length, m (0: off)");
   command->add_option("--min-volume", s.minComponentVolume,
