@@ -9,6 +9,7 @@
 #include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_reduce.h>
 
 #include <array>
@@ -458,13 +459,15 @@ TriangleMesh levelSetToMesh(const openvdb::FloatGrid& grid, double adaptivity) {
     const std::vector<openvdb::Coord> cell = vertexCells(mesh, grid.transform());
     std::vector<std::size_t> original;
     const TriangleMesh merged = mergedPart(mesh, cell, original);
-    std::vector<std::size_t> crossing = selfIntersectingTriangles(merged);
+    // CGAL's self-intersection search runs on one thread: the coverage search (on all
+    // of them) beside it.
+    std::vector<std::size_t> crossing;
+    std::vector<openvdb::Coord> uncovered;
+    tbb::parallel_invoke([&] { crossing = selfIntersectingTriangles(merged); },
+                         [&] { uncovered = uncoveredCells(uniform, uniformCell, mesh, cell, merged, kAdaptiveTolerance * dx); });
     for (std::size_t& t : crossing) t = original[t];
     bad.insert(bad.end(), crossing.begin(), crossing.end());
-    profile.lap("adaptive: off the surface, crossing");
-    const std::vector<openvdb::Coord> uncovered =
-        uncoveredCells(uniform, uniformCell, mesh, cell, merged, kAdaptiveTolerance * dx);
-    profile.lap("adaptive: uncovered");
+    profile.lap("adaptive: off the surface, crossing, uncovered");
     // Unmerge the regions that made a bad triangle: the cells of its corners (a merged
     // region's vertex lies in its block; a masked voxel keeps its block of 2 and the
     // blocks of 4 and 8 around it unmerged), one voxel around them. A triangle whose
