@@ -85,15 +85,17 @@ std::vector<std::size_t> trianglesOffTheSurface(const TriangleMesh& mesh, const 
   return result;
 }
 
-/// The cell (index space, floored) of each vertex: a dual contouring vertex lies in
-/// the cell of the edge crossings it was made from.
+/// The cell (index space, floored) of a vertex: a dual contouring vertex lies in the
+/// cell of the edge crossings it was made from.
+openvdb::Coord vertexCell(const Eigen::Vector3f& p, const openvdb::math::Transform& transform) {
+  return openvdb::Coord::floor(transform.worldToIndex(openvdb::Vec3d(p.x(), p.y(), p.z())));
+}
+
+/// vertexCell of every vertex.
 std::vector<openvdb::Coord> vertexCells(const TriangleMesh& mesh, const openvdb::math::Transform& transform) {
   std::vector<openvdb::Coord> cell(mesh.vertices.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cell.size(), 8192), [&](const auto& range) {
-    for (std::size_t v = range.begin(); v != range.end(); ++v) {
-      const Eigen::Vector3f& p = mesh.vertices[v];
-      cell[v] = openvdb::Coord::floor(transform.worldToIndex(openvdb::Vec3d(p.x(), p.y(), p.z())));
-    }
+    for (std::size_t v = range.begin(); v != range.end(); ++v) cell[v] = vertexCell(mesh.vertices[v], transform);
   });
   return cell;
 }
@@ -372,10 +374,7 @@ double estimatedAdaptiveCut(const TriangleMesh& uniform, const openvdb::FloatGri
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
   const std::size_t stride = std::max<std::size_t>(1, n / kExact);
   const openvdb::math::Transform& transform = grid.transform();
-  const auto cellOf = [&](std::size_t v) {
-    const Eigen::Vector3f& p = uniform.vertices[v];
-    return openvdb::Coord::floor(transform.worldToIndex(openvdb::Vec3d(p.x(), p.y(), p.z())));
-  };
+  const auto cellOf = [&](std::size_t v) { return vertexCell(uniform.vertices[v], transform); };
   using Counts = std::pair<std::size_t, std::size_t>;  // uniform vertices, estimated vertices
   const Counts counts = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, (chunks + stride - 1) / stride, 1), Counts(0, 0),
