@@ -53,8 +53,9 @@ struct ParticleLevelSet {
 };
 
 /// The velocity grid "v" over the active voxels of the final `levelSet`
-/// (detail/BandVelocity.h), from a method's kernel-weighted velocities.
-openvdb::Vec3SGrid::Ptr velocityOverBand(const openvdb::FloatGrid& levelSet, const openvdb::Vec3STree& velocity,
+/// (detail/BandVelocity.h), from a method's kernel-weighted velocities (consumed:
+/// their leaves become the grid's).
+openvdb::Vec3SGrid::Ptr velocityOverBand(const openvdb::FloatGrid& levelSet, openvdb::Vec3STree::Ptr velocity,
                                          int halfWidth);
 
 /// Dispatches to the method below.

@@ -5,6 +5,7 @@
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/ParticleCache.h"
 #include "libsph/io/VdbFile.h"
+#include "libsph/io/VdbWriter.h"
 #include "libsph/scene/SceneSetup.h"
 #include "surfacing/LevelSetFiltering.h"
 #include "surfacing/LevelSetMesher.h"
@@ -139,12 +140,10 @@ void writeSurfaceVdb(const fs::path& path, openvdb::FloatGrid& levelSet, openvdb
     grids.push_back(foam->copy());
   }
   writeFileAtomically(path, [&](const fs::path& temp) {
-    openvdb::io::File file(temp.string());
     // Active-mask compression (inactive values are +-background); Blosc only on request.
-    file.setCompression(options.vdbBlosc ? openvdb::io::COMPRESS_ACTIVE_MASK | openvdb::io::COMPRESS_BLOSC
-                                         : openvdb::io::COMPRESS_ACTIVE_MASK);
-    file.write(grids);
-    file.close();
+    writeVdbFile(temp, openvdb::GridCPtrVec(grids.begin(), grids.end()),
+                 options.vdbBlosc ? openvdb::io::COMPRESS_ACTIVE_MASK | openvdb::io::COMPRESS_BLOSC
+                                  : openvdb::io::COMPRESS_ACTIVE_MASK);
   });
 }
 
@@ -223,8 +222,7 @@ SurfaceResult surfaceParticles(const std::vector<Vec3r>& positions, const std::v
   if (!positions.empty()) surfacing::filterLevelSet(*levelSet, options.filter, options.smoothingPasses);
   result.activeVoxels = levelSet->activeVoxelCount();
   openvdb::Vec3SGrid::Ptr velocity;  // over the final band
-  if (kernelVelocity) velocity = surfacing::velocityOverBand(*levelSet, *kernelVelocity, settings.halfWidth);
-  kernelVelocity.reset();
+  if (kernelVelocity) velocity = surfacing::velocityOverBand(*levelSet, std::move(kernelVelocity), settings.halfWidth);
   result.hasVelocity = velocity != nullptr;
   stageDone(result.timings.filter, result.timings.cpu.filter);
 

@@ -6,6 +6,7 @@
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/VdbFile.h"
 #include "libsph/io/VdbPointAttributes.h"
+#include "libsph/io/VdbWriter.h"
 
 #include <openvdb/openvdb.h>
 #include <openvdb/points/PointConversion.h>
@@ -140,10 +141,7 @@ void writeWhitewaterVdb(const fs::path& path, const WhitewaterFrame& frame) {
   grid->insertMeta(kHashKey, openvdb::StringMetadata(frame.inputHash));
   grid->insertMeta("cascade_version", openvdb::StringMetadata(cascadeVersion()));
   writeFileAtomically(path, [&](const fs::path& temp) {
-    openvdb::io::File file(temp.string());
-    file.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
-    file.write(openvdb::GridCPtrVec{grid});
-    file.close();
+    writeVdbFile(temp, openvdb::GridCPtrVec{grid}, openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
   });
 }
 

@@ -7,6 +7,7 @@
 #include "libsph/io/Ply.h"
 #include "libsph/io/VdbFile.h"
 #include "libsph/io/VdbPointAttributes.h"
+#include "libsph/io/VdbWriter.h"
 
 #include <openvdb/openvdb.h>
 #include <openvdb/points/PointConversion.h>
@@ -88,10 +89,7 @@ void writeParticleFrame(const fs::path& path, const ParticleFrame& frame, double
   grid->insertMeta(kVersionKey, openvdb::StringMetadata(cascadeVersion()));
 
   writeFileAtomically(path, [&](const fs::path& temp) {
-    openvdb::io::File file(temp.string());
-    file.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
-    file.write(openvdb::GridCPtrVec{grid});
-    file.close();
+    writeVdbFile(temp, openvdb::GridCPtrVec{grid}, openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
   });
 }
 

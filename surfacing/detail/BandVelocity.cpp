@@ -3,7 +3,7 @@
 #include "surfacing/detail/BlockRasterizer.h"
 #include "surfacing/detail/Profile.h"
 
-#include <openvdb/tree/LeafManager.h>
+#include <openvdb/tools/Prune.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
@@ -19,14 +19,18 @@ VelocityLeaves::~VelocityLeaves() {
 
 void VelocityLeaves::add(const openvdb::Coord& origin, const float* weight, const float* sumX, const float* sumY,
                          const float* sumZ, float minWeight) {
-  std::unique_ptr<LeafT> leaf;
-  for (openvdb::Index i = 0; i < LeafT::SIZE; ++i) {
-    if (!(weight[i] > minWeight)) continue;
-    if (!leaf) leaf = std::make_unique<LeafT>(origin, openvdb::Vec3s(0.0f), false);
-    const float inverse = 1.0f / weight[i];
-    leaf->setValueOn(i, openvdb::Vec3s(sumX[i] * inverse, sumY[i] * inverse, sumZ[i] * inverse));
+  LeafT::NodeMaskType known;
+  for (openvdb::Index i = 0; i < LeafT::SIZE; ++i)
+    if (weight[i] > minWeight) known.setOn(i);
+  if (known.isOff()) return;
+  auto leaf = std::make_unique<LeafT>(origin, openvdb::Vec3s(0.0f), false);
+  openvdb::Vec3s* values = leaf->buffer().data();
+  for (openvdb::Index i = 0; i < LeafT::SIZE; ++i) {  // unknown voxels keep the background, 0
+    const float inverse = weight[i] > minWeight ? 1.0f / weight[i] : 0.0f;
+    values[i] = openvdb::Vec3s(sumX[i] * inverse, sumY[i] * inverse, sumZ[i] * inverse);
   }
-  if (leaf) mLeaves.local().push_back(leaf.release());
+  leaf->setValueMask(known);
+  mLeaves.local().push_back(leaf.release());
 }
 
 openvdb::Vec3STree::Ptr VelocityLeaves::release() {
@@ -41,37 +45,68 @@ openvdb::Vec3STree::Ptr VelocityLeaves::release() {
   return tree;
 }
 
-openvdb::Vec3SGrid::Ptr velocityOverBand(const openvdb::FloatGrid& levelSet, const openvdb::Vec3STree& known,
-                                         int sweeps) {
+openvdb::Vec3SGrid::Ptr velocityOverBand(const openvdb::FloatGrid& levelSet, openvdb::Vec3STree::Ptr known, int sweeps) {
   using LeafT = openvdb::Vec3STree::LeafNodeType;
+  using FloatLeaf = openvdb::FloatTree::LeafNodeType;
+  using Mask = LeafT::NodeMaskType;
   ProfileClock profile;
-  auto grid = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
+  if (!known) known = std::make_shared<openvdb::Vec3STree>(openvdb::Vec3s(0.0f));
+  if (known->hasActiveTiles()) known->voxelizeActiveTiles();  // none from VelocityLeaves
+  auto grid = openvdb::Vec3SGrid::create(known);
+  known.reset();
   grid->setTransform(levelSet.transform().copy());
   grid->setName("v");
   grid->setIsInWorldSpace(true);
   grid->setVectorType(openvdb::VEC_CONTRAVARIANT_RELATIVE);  // a velocity: rotates, does not translate
   openvdb::Vec3STree& tree = grid->tree();
-  tree.topologyUnion(levelSet.tree());
-  tree.voxelizeActiveTiles();
-  profile.lap("velocity: topology");
+  const openvdb::Vec3s zero(0.0f);
 
-  // Known values in place; unknown band voxels switched off and listed per leaf.
-  openvdb::tree::LeafManager<openvdb::Vec3STree> leaves(tree);
-  const std::size_t leafCount = leaves.leafCount();
-  std::vector<std::vector<openvdb::Index>> unknown(leafCount);
+  // The band's leaves (level sets keep no active tiles; voxelize any there are).
+  const openvdb::FloatTree* band = &levelSet.tree();
+  openvdb::FloatTree::Ptr voxelized;
+  if (band->hasActiveTiles()) {
+    voxelized = std::make_shared<openvdb::FloatTree>(*band);
+    voxelized->voxelizeActiveTiles();
+    band = voxelized.get();
+  }
+  std::vector<const FloatLeaf*> bandLeaves;
+  bandLeaves.reserve(band->leafCount());
+  for (auto leaf = band->cbeginLeaf(); leaf; ++leaf) bandLeaves.push_back(leaf.getLeaf());
+  const std::size_t leafCount = bandLeaves.size();
+
+  // The known tree's leaves become v's: a band leaf's known voxels keep their
+  // values, its other voxels are unknown; known voxels outside the band go off
+  // (to the background, so the file stays small). Band leaves no kernel reached
+  // are made; leaves off the band are dropped.
+  std::vector<LeafT*> leaves(leafCount, nullptr);
+  std::vector<Mask> unknown(leafCount);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leafCount, 16), [&](const auto& range) {
     for (std::size_t l = range.begin(); l != range.end(); ++l) {
-      LeafT& leaf = leaves.leaf(l);
-      const LeafT* knownLeaf = known.probeConstLeaf(leaf.origin());
-      for (auto voxel = leaf.beginValueOn(); voxel; ++voxel) {
-        const openvdb::Index offset = voxel.pos();
-        if (knownLeaf && knownLeaf->isValueOn(offset)) voxel.setValue(knownLeaf->getValue(offset));
-        else unknown[l].push_back(offset);
+      const Mask& active = bandLeaves[l]->getValueMask();
+      LeafT* leaf = tree.probeLeaf(bandLeaves[l]->origin());
+      if (!leaf) {
+        unknown[l] = active;
+        continue;
       }
-      for (openvdb::Index offset : unknown[l]) leaf.setValueOff(offset);
+      leaves[l] = leaf;
+      const Mask knownMask = leaf->getValueMask();
+      unknown[l] = active & !knownMask;
+      const Mask offBand = knownMask & !active;
+      for (auto off = offBand.beginOn(); off; ++off) leaf->setValueOff(off.pos(), zero);
+      leaf->setValueMask(knownMask & active);
     }
   });
-  profile.lap("velocity: known values");
+  for (std::size_t l = 0; l < leafCount; ++l)
+    if (!leaves[l]) {
+      leaves[l] = new LeafT(bandLeaves[l]->origin(), zero, false);
+      tree.addLeaf(leaves[l]);
+    }
+  std::vector<openvdb::Coord> offBand;
+  for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf)
+    if (!band->probeConstLeaf(leaf->origin())) offBand.push_back(leaf->origin());
+  for (const openvdb::Coord& origin : offBand) delete tree.stealNode<LeafT>(origin, zero, false);
+  profile.lap("velocity: band leaves");
+
   // The six face neighbours of every leaf (null where there is none): neighbour
   // voxels are read through them, not through tree look-ups.
   constexpr int D = LeafT::DIM;
@@ -80,24 +115,28 @@ openvdb::Vec3SGrid::Ptr velocityOverBand(const openvdb::FloatGrid& levelSet, con
     for (std::size_t l = range.begin(); l != range.end(); ++l)
       for (int axis = 0, n = 0; axis < 3; ++axis)
         for (int side = -1; side <= 1; side += 2, ++n) {
-          openvdb::Coord origin = leaves.leaf(l).origin();
+          openvdb::Coord origin = leaves[l]->origin();
           origin[axis] += side * D;
           faceLeaves[l][std::size_t(n)] = tree.probeConstLeaf(origin);
         }
   });
 
-  // Sweeps: gather from the previous state, then commit.
-  std::vector<std::vector<std::pair<openvdb::Index, openvdb::Vec3s>>> found(leafCount);
-  std::vector<std::vector<openvdb::Index>> stillUnknown(leafCount);
+  // Sweeps (Jacobi: a sweep reads only voxels known before it). A voxel a sweep
+  // resolves gets its value at once, which no one reads while it is off, and turns
+  // on when the sweep is over.
+  std::vector<Mask> resolved(leafCount);
   for (int sweep = 0; sweep < sweeps; ++sweep) {
-    const std::size_t resolved = tbb::parallel_reduce(
+    const std::size_t resolvedCount = tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, leafCount, 16), std::size_t(0),
         [&](const auto& range, std::size_t count) {
           for (std::size_t l = range.begin(); l != range.end(); ++l) {
-            found[l].clear();
-            stillUnknown[l].clear();
-            const LeafT& leaf = leaves.leaf(l);
-            for (openvdb::Index offset : unknown[l]) {
+            resolved[l].setOff();
+            if (unknown[l].isOff()) continue;
+            LeafT& leaf = *leaves[l];
+            const Mask& knownMask = leaf.getValueMask();
+            openvdb::Vec3s* values = leaf.buffer().data();
+            for (auto on = unknown[l].beginOn(); on; ++on) {
+              const openvdb::Index offset = on.pos();
               const int local[3] = {int(offset >> 6), int((offset >> 3) & 7), int(offset & 7)};
               const openvdb::Index stride[3] = {64, 8, 1};
               openvdb::Vec3s sum(0.0f);
@@ -105,52 +144,54 @@ openvdb::Vec3SGrid::Ptr velocityOverBand(const openvdb::FloatGrid& levelSet, con
               for (int axis = 0, n = 0; axis < 3; ++axis)
                 for (int side = -1; side <= 1; side += 2, ++n) {
                   const int next = local[axis] + side;
-                  const LeafT* owner = &leaf;
-                  openvdb::Index neighbor;
                   if (next >= 0 && next < D) {
-                    neighbor = side < 0 ? offset - stride[axis] : offset + stride[axis];
+                    const openvdb::Index neighbor = side < 0 ? offset - stride[axis] : offset + stride[axis];
+                    if (knownMask.isOn(neighbor)) sum += values[neighbor], ++count6;
                   } else {  // across the face: the same voxel on the far side of the next leaf
-                    owner = faceLeaves[l][std::size_t(n)];
+                    const LeafT* owner = faceLeaves[l][std::size_t(n)];
                     if (!owner) continue;
-                    neighbor = side < 0 ? offset + (D - 1) * stride[axis] : offset - (D - 1) * stride[axis];
+                    const openvdb::Index neighbor =
+                        side < 0 ? offset + (D - 1) * stride[axis] : offset - (D - 1) * stride[axis];
+                    if (owner->isValueOn(neighbor)) sum += owner->getValue(neighbor), ++count6;
                   }
-                  if (owner->isValueOn(neighbor)) sum += owner->getValue(neighbor), ++count6;
                 }
-              if (count6 > 0) found[l].emplace_back(offset, sum / float(count6));
-              else stillUnknown[l].push_back(offset);
+              if (count6 == 0) continue;
+              values[offset] = sum / float(count6);
+              resolved[l].setOn(offset);
+              ++count;
             }
-            count += found[l].size();
           }
           return count;
         },
         std::plus<std::size_t>());
     if (std::getenv("CASCADE_SURFACE_PROFILE")) {
       std::size_t left = 0;
-      for (const auto& list : unknown) left += list.size();
-      std::fprintf(stderr, "  profile velocity: sweep %d: %zu unknown, %zu resolved\n", sweep, left, resolved);
+      for (const Mask& mask : unknown) left += mask.countOn();
+      std::fprintf(stderr, "  profile velocity: sweep %d: %zu unknown, %zu resolved\n", sweep, left, resolvedCount);
     }
-    if (resolved == 0) break;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leafCount, 16), [&](const auto& range) {
+    if (resolvedCount == 0) break;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leafCount, 64), [&](const auto& range) {
       for (std::size_t l = range.begin(); l != range.end(); ++l) {
-        if (found[l].empty()) continue;
-        LeafT& leaf = leaves.leaf(l);
-        for (const auto& [offset, value] : found[l]) leaf.setValueOn(offset, value);
-        unknown[l].swap(stillUnknown[l]);
+        if (resolved[l].isOff()) continue;
+        leaves[l]->setValueMask(leaves[l]->getValueMask() | resolved[l]);
+        unknown[l] = unknown[l] & !resolved[l];
       }
     });
   }
   profile.lap("velocity: sweeps");
   // Whatever is left (no known voxel within the sweeps): the mean known value.
   std::size_t left = 0;
-  for (const auto& list : unknown) left += list.size();
+  for (const Mask& mask : unknown) left += mask.countOn();
   if (left > 0) {
     openvdb::Vec3d sum(0.0);
     std::size_t count = 0;
     for (auto value = tree.cbeginValueOn(); value; ++value) sum += openvdb::Vec3d(*value), ++count;
     const openvdb::Vec3s mean = count > 0 ? openvdb::Vec3s(sum / double(count)) : openvdb::Vec3s(0.0f);
-    for (std::size_t l = 0; l < leaves.leafCount(); ++l)
-      for (openvdb::Index offset : unknown[l]) leaves.leaf(l).setValueOn(offset, mean);
+    for (std::size_t l = 0; l < leafCount; ++l)
+      for (auto on = unknown[l].beginOn(); on; ++on) leaves[l]->setValueOn(on.pos(), mean);
   }
+  // Internal nodes the dropped leaves left empty (every band voxel is on by now).
+  if (!offBand.empty()) openvdb::tools::pruneInactive(tree);
   return grid;
 }
 

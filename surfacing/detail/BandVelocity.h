@@ -48,9 +48,10 @@ private:
 };
 
 /// The velocity grid "v" over the active voxels of `levelSet`, from the known
-/// voxels of `known`: at most `sweeps` extension sweeps; voxels still unknown after
-/// them (far from any particle's support) get the mean of the known values.
-openvdb::Vec3SGrid::Ptr velocityOverBand(const openvdb::FloatGrid& levelSet, const openvdb::Vec3STree& known,
+/// voxels of `known` (consumed: its leaves become the grid's): at most `sweeps`
+/// extension sweeps; voxels still unknown after them (far from any particle's
+/// support) get the mean of the known values.
+openvdb::Vec3SGrid::Ptr velocityOverBand(const openvdb::FloatGrid& levelSet, openvdb::Vec3STree::Ptr known,
                                          int sweeps);
 
 /// Known velocities from the kernel k(|x - c_j| / R) around `center` (velocity

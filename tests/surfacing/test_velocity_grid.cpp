@@ -40,7 +40,7 @@ Made withVelocity(SurfaceMethod method, const std::vector<Vec3r>& points, const 
   settings.velocities = &velocities;
   ParticleLevelSet made = particlesToLevelSet(method, points, settings);
   if (!made.velocity) return {made.surface, nullptr};
-  return {made.surface, velocityOverBand(*made.surface, *made.velocity, settings.halfWidth)};
+  return {made.surface, velocityOverBand(*made.surface, std::move(made.velocity), settings.halfWidth)};
 }
 
 class VelocityGrid : public ::testing::TestWithParam<SurfaceMethod> {};
