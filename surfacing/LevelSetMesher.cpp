@@ -23,6 +23,11 @@ namespace cascade::surfacing {
 
 namespace {
 
+/// How far (cells) the triangles that a repair changes reach from the repaired
+/// cell: its leaf's blocks re-merge (up to 8 cells) and their triangles join the
+/// next leaves' vertices (8 more), with a leaf's margin.
+constexpr int kChangeReach = 24;
+
 /// OpenVDB's adaptive mesh of `grid`, its quads split along the shorter diagonal;
 /// voxels of `mask` (may be null) are not merged.
 TriangleMesh volumeToTriangles(const openvdb::FloatGrid& grid, double adaptivity,
@@ -107,6 +112,29 @@ openvdb::CoordBBox cellBox(const std::array<std::uint32_t, 3>& t, const std::vec
   return box;
 }
 
+/// The triangles t of `mesh` with keep[t], as a mesh of their own: vertices
+/// renumbered (shared ones stay shared); `original` gets each triangle's index.
+TriangleMesh subMesh(const TriangleMesh& mesh, const std::vector<char>& keep, std::vector<std::size_t>& original) {
+  TriangleMesh part;
+  original.clear();
+  std::vector<std::uint32_t> index(mesh.vertices.size(), std::uint32_t(-1));
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    if (!keep[t]) continue;
+    std::array<std::uint32_t, 3> corners{};
+    for (int k = 0; k < 3; ++k) {
+      std::uint32_t& i = index[mesh.triangles[t][k]];
+      if (i == std::uint32_t(-1)) {
+        i = std::uint32_t(part.vertices.size());
+        part.vertices.push_back(mesh.vertices[mesh.triangles[t][k]]);
+      }
+      corners[k] = i;
+    }
+    part.triangles.push_back(corners);
+    original.push_back(t);
+  }
+  return part;
+}
+
 /// Boxes (index space) of the mesh's components no more than `extent` cells across
 /// along every axis: droplets and spray, which merging would reshape (and which the
 /// clean-up's volume threshold would then treat unlike the uniform mesh's).
@@ -166,24 +194,25 @@ TriangleMesh mergedPart(const TriangleMesh& mesh, const std::vector<openvdb::Coo
         }
       }
     });
-  TriangleMesh part;
-  original.clear();
-  std::vector<std::uint32_t> index(mesh.vertices.size(), std::uint32_t(-1));
-  for (std::size_t t = 0; t < n; ++t) {
-    if (!near[t]) continue;
-    std::array<std::uint32_t, 3> corners{};
-    for (int k = 0; k < 3; ++k) {
-      std::uint32_t& i = index[mesh.triangles[t][k]];
-      if (i == std::uint32_t(-1)) {
-        i = std::uint32_t(part.vertices.size());
-        part.vertices.push_back(mesh.vertices[mesh.triangles[t][k]]);
-      }
-      corners[k] = i;
-    }
-    part.triangles.push_back(corners);
-    original.push_back(t);
-  }
-  return part;
+  return subMesh(mesh, near, original);
+}
+
+/// The triangles of `mesh` with a corner in a cell on in `region`, as a mesh of
+/// their own (shared vertices stay shared); `original` gets each one's index in `mesh`.
+TriangleMesh trianglesNear(const TriangleMesh& mesh, const std::vector<openvdb::Coord>& cell,
+                           const openvdb::BoolTree& region, std::vector<std::size_t>& original) {
+  const std::size_t n = mesh.triangles.size();
+  std::vector<char> near(n, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 8192), [&](const auto& range) {
+    openvdb::tree::ValueAccessor<const openvdb::BoolTree> inside(region);
+    for (std::size_t t = range.begin(); t != range.end(); ++t)
+      for (std::uint32_t corner : mesh.triangles[t])
+        if (inside.isValueOn(cell[corner])) {
+          near[t] = 1;
+          break;
+        }
+  });
+  return subMesh(mesh, near, original);
 }
 
 /// The cells of the uniform mesh's vertices that the adaptive mesh misses: a vertex
@@ -192,6 +221,7 @@ TriangleMesh mergedPart(const TriangleMesh& mesh, const std::vector<openvdb::Coo
 /// with a tent of triangles that stays on the surface at its corners and centroids
 /// but leaves the spike out.
 std::vector<openvdb::Coord> uncoveredCells(const TriangleMesh& uniform, const std::vector<openvdb::Coord>& uniformCell,
+                                           const std::vector<std::size_t>* uniformVertices,
                                            const TriangleMesh& adaptive, const std::vector<openvdb::Coord>& adaptiveCell,
                                            const TriangleMesh& merged, double tolerance) {
   std::unordered_map<openvdb::Coord, std::uint32_t> vertexOfCell;  // an unmerged cell's one vertex
@@ -199,7 +229,9 @@ std::vector<openvdb::Coord> uncoveredCells(const TriangleMesh& uniform, const st
   for (std::size_t v = 0; v < adaptive.vertices.size(); ++v) vertexOfCell.emplace(adaptiveCell[v], std::uint32_t(v));
   std::vector<Eigen::Vector3f> missing;
   std::vector<openvdb::Coord> missingCell;
-  for (std::size_t v = 0; v < uniform.vertices.size(); ++v) {
+  const std::size_t count = uniformVertices ? uniformVertices->size() : uniform.vertices.size();
+  for (std::size_t i = 0; i < count; ++i) {
+    const std::size_t v = uniformVertices ? (*uniformVertices)[i] : i;
     const auto found = vertexOfCell.find(uniformCell[v]);
     if (found != vertexOfCell.end() &&
         (adaptive.vertices[found->second] - uniform.vertices[v]).squaredNorm() <= float(tolerance * tolerance))
@@ -442,6 +474,10 @@ TriangleMesh levelSetToMesh(const openvdb::FloatGrid& grid, double adaptivity) {
     ++droplets;
   }
   profile.lap("adaptive: droplets");
+  // After a repair, the cells whose triangles can differ from the last round's
+  // (within kChangeReach cells of a repaired cell), and those of the triangles the
+  // changed ones can cross or cover (twice as far).
+  openvdb::BoolTree::Ptr changed, context;
   for (int round = 0; round <= kMaxRepairs; ++round) {
     TriangleMesh mesh = volumeToTriangles(grid, adaptivity, droplets > 0 || round > 0 ? mask : nullptr);
     profile.lap("adaptive: mesh");
@@ -453,19 +489,35 @@ TriangleMesh levelSetToMesh(const openvdb::FloatGrid& grid, double adaptivity) {
                      mesh.triangles.size(), uniform.triangles.size());
       return uniform;
     }
-    std::vector<std::size_t> bad = trianglesOffTheSurface(mesh, grid, float(kAdaptiveTolerance * dx));
-    const std::size_t off = bad.size();
     const std::vector<openvdb::Coord> cell = vertexCells(mesh, grid.transform());
+    // After a repair only the mesh near the repaired cells differs from the last
+    // round's, whose other triangles passed: the checks look there alone.
+    std::vector<std::size_t> inPart;  // the checked triangles' indices in `mesh`
+    const TriangleMesh part = round == 0 ? TriangleMesh() : trianglesNear(mesh, cell, *context, inPart);
+    const TriangleMesh& checked = round == 0 ? mesh : part;
+    const std::vector<openvdb::Coord> checkedCell = round == 0 ? cell : vertexCells(part, grid.transform());
+    std::vector<std::size_t> bad = trianglesOffTheSurface(checked, grid, float(kAdaptiveTolerance * dx));
+    const std::size_t off = bad.size();
     std::vector<std::size_t> original;
-    const TriangleMesh merged = mergedPart(mesh, cell, original);
+    const TriangleMesh merged = mergedPart(checked, checkedCell, original);
+    // Uniform vertices to cover: all of them, or those in the changed region.
+    std::vector<std::size_t> uniformVertices;
+    if (round > 0)
+      for (std::size_t v = 0; v < uniform.vertices.size(); ++v)
+        if (changed->isValueOn(uniformCell[v])) uniformVertices.push_back(v);
     // CGAL's self-intersection search runs on one thread: the coverage search (on all
     // of them) beside it.
     std::vector<std::size_t> crossing;
     std::vector<openvdb::Coord> uncovered;
     tbb::parallel_invoke([&] { crossing = selfIntersectingTriangles(merged); },
-                         [&] { uncovered = uncoveredCells(uniform, uniformCell, mesh, cell, merged, kAdaptiveTolerance * dx); });
+                         [&] {
+                           uncovered = uncoveredCells(uniform, uniformCell, round == 0 ? nullptr : &uniformVertices,
+                                                      mesh, cell, merged, kAdaptiveTolerance * dx);
+                         });
     for (std::size_t& t : crossing) t = original[t];
     bad.insert(bad.end(), crossing.begin(), crossing.end());
+    if (round > 0)
+      for (std::size_t& t : bad) t = inPart[t];
     profile.lap("adaptive: off the surface, crossing, uncovered");
     // Unmerge the regions that made a bad triangle: the cells of its corners (a merged
     // region's vertex lies in its block; a masked voxel keeps its block of 2 and the
@@ -485,7 +537,13 @@ TriangleMesh levelSetToMesh(const openvdb::FloatGrid& grid, double adaptivity) {
                    droplets, repair.size());
     if (repair.empty()) return mesh;
     if (round == kMaxRepairs) break;
-    for (const openvdb::Coord& c : repair) mask->sparseFill(openvdb::CoordBBox(c.offsetBy(-1), c.offsetBy(1)), true, true);
+    changed = std::make_shared<openvdb::BoolTree>(false);
+    context = std::make_shared<openvdb::BoolTree>(false);
+    for (const openvdb::Coord& c : repair) {
+      mask->sparseFill(openvdb::CoordBBox(c.offsetBy(-1), c.offsetBy(1)), true, true);
+      changed->sparseFill(openvdb::CoordBBox(c.offsetBy(-kChangeReach), c.offsetBy(kChangeReach)), true, true);
+      context->sparseFill(openvdb::CoordBBox(c.offsetBy(-2 * kChangeReach), c.offsetBy(2 * kChangeReach)), true, true);
+    }
   }
   return uniform;
 }
