@@ -72,8 +72,10 @@ std::vector<std::size_t> trianglesOffTheSurface(const TriangleMesh& mesh, const 
                                                 float tolerance) {
   tbb::enumerable_thread_specific<std::vector<std::size_t>> found;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.triangles.size(), 4096), [&](const auto& range) {
-    openvdb::tools::GridSampler<openvdb::FloatGrid::ConstAccessor, openvdb::tools::BoxSampler> phi(
-        grid.getConstAccessor(), grid.transform());
+    // The sampler keeps a reference to the accessor: it must outlive the sampler.
+    const openvdb::FloatGrid::ConstAccessor access = grid.getConstAccessor();
+    openvdb::tools::GridSampler<openvdb::FloatGrid::ConstAccessor, openvdb::tools::BoxSampler> phi(access,
+                                                                                                 grid.transform());
     auto off = [&](const Eigen::Vector3f& p) {
       return std::abs(phi.wsSample(openvdb::Vec3d(p.x(), p.y(), p.z()))) > tolerance;
     };
