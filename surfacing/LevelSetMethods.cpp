@@ -76,13 +76,17 @@ std::vector<Eigen::Vector3f> sampleVelocity(const openvdb::Vec3SGrid& velocity,
         openvdb::Vec3s sum(0.0f);
         float weightSum = 0;
         for (int corner = 0; corner < 8; ++corner) {
-          const openvdb::Vec3s* values = cornerValues[j][corner];
-          if (!values) continue;
           const int dx = corner >> 2, dy = (corner >> 1) & 1, dz = corner & 1;
-          const openvdb::Index at = LeafT::coordToOffset(base[j].offsetBy(dx, dy, dz));
-          if (!cornerMask[j][corner]->isOn(at)) continue;
+          const openvdb::Coord c = base[j].offsetBy(dx, dy, dz);
+          const openvdb::Vec3s* values = cornerValues[j][corner];
+          openvdb::Vec3s tile;
+          if (!values) {  // no leaf there: an active tile's value, if any (grids from elsewhere)
+            if (!access.probeValue(c, tile)) continue;
+          } else if (!cornerMask[j][corner]->isOn(LeafT::coordToOffset(c))) {
+            continue;
+          }
           const float w = wx[dx] * wy[dy] * wz[dz];
-          sum += w * values[at];
+          sum += w * (values ? values[LeafT::coordToOffset(c)] : tile);
           weightSum += w;
         }
         const openvdb::Vec3s v = weightSum > 0 ? sum / weightSum : openvdb::Vec3s(0.0f);
