@@ -115,10 +115,13 @@ openvdb::CoordBBox cellBox(const std::array<std::uint32_t, 3>& t, const std::vec
 }
 
 /// The triangles t of `mesh` with keep[t], as a mesh of their own: vertices
-/// renumbered (shared ones stay shared); `original` gets each triangle's index.
-TriangleMesh subMesh(const TriangleMesh& mesh, const std::vector<char>& keep, std::vector<std::size_t>& original) {
+/// renumbered (shared ones stay shared); `original` gets each triangle's index,
+/// `sourceVertex` (if given) each vertex's.
+TriangleMesh subMesh(const TriangleMesh& mesh, const std::vector<char>& keep, std::vector<std::size_t>& original,
+                     std::vector<std::uint32_t>* sourceVertex = nullptr) {
   TriangleMesh part;
   original.clear();
+  if (sourceVertex) sourceVertex->clear();
   std::vector<std::uint32_t> index(mesh.vertices.size(), std::uint32_t(-1));
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     if (!keep[t]) continue;
@@ -128,6 +131,7 @@ TriangleMesh subMesh(const TriangleMesh& mesh, const std::vector<char>& keep, st
       if (i == std::uint32_t(-1)) {
         i = std::uint32_t(part.vertices.size());
         part.vertices.push_back(mesh.vertices[mesh.triangles[t][k]]);
+        if (sourceVertex) sourceVertex->push_back(mesh.triangles[t][k]);
       }
       corners[k] = i;
     }
@@ -200,9 +204,11 @@ TriangleMesh mergedPart(const TriangleMesh& mesh, const std::vector<openvdb::Coo
 }
 
 /// The triangles of `mesh` with a corner in a cell on in `region`, as a mesh of
-/// their own (shared vertices stay shared); `original` gets each one's index in `mesh`.
+/// their own (shared vertices stay shared); `original` gets each one's index in
+/// `mesh`, `partCell` each vertex's cell (from `cell`).
 TriangleMesh trianglesNear(const TriangleMesh& mesh, const std::vector<openvdb::Coord>& cell,
-                           const openvdb::BoolTree& region, std::vector<std::size_t>& original) {
+                           const openvdb::BoolTree& region, std::vector<std::size_t>& original,
+                           std::vector<openvdb::Coord>& partCell) {
   const std::size_t n = mesh.triangles.size();
   std::vector<char> near(n, 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 8192), [&](const auto& range) {
@@ -214,7 +220,11 @@ TriangleMesh trianglesNear(const TriangleMesh& mesh, const std::vector<openvdb::
           break;
         }
   });
-  return subMesh(mesh, near, original);
+  std::vector<std::uint32_t> sourceVertex;
+  TriangleMesh part = subMesh(mesh, near, original, &sourceVertex);
+  partCell.resize(sourceVertex.size());
+  for (std::size_t v = 0; v < sourceVertex.size(); ++v) partCell[v] = cell[sourceVertex[v]];
+  return part;
 }
 
 /// The cells of the uniform mesh's vertices that the adaptive mesh misses: a vertex
@@ -495,9 +505,10 @@ TriangleMesh levelSetToMesh(const openvdb::FloatGrid& grid, double adaptivity) {
     // After a repair only the mesh near the repaired cells differs from the last
     // round's, whose other triangles passed: the checks look there alone.
     std::vector<std::size_t> inPart;  // the checked triangles' indices in `mesh`
-    const TriangleMesh part = round == 0 ? TriangleMesh() : trianglesNear(mesh, cell, *context, inPart);
+    std::vector<openvdb::Coord> partCell;
+    const TriangleMesh part = round == 0 ? TriangleMesh() : trianglesNear(mesh, cell, *context, inPart, partCell);
     const TriangleMesh& checked = round == 0 ? mesh : part;
-    const std::vector<openvdb::Coord> checkedCell = round == 0 ? cell : vertexCells(part, grid.transform());
+    const std::vector<openvdb::Coord>& checkedCell = round == 0 ? cell : partCell;
     std::vector<std::size_t> bad = trianglesOffTheSurface(checked, grid, float(kAdaptiveTolerance * dx));
     const std::size_t off = bad.size();
     std::vector<std::size_t> original;

@@ -1,5 +1,6 @@
 // writeVdbFile (libsph/io/VdbWriter.h): the bytes io::File::write gives, written
 // through one buffer, and a failed write is an error, not a short file.
+#include "libsph/io/AtomicFile.h"
 #include "libsph/io/VdbWriter.h"
 
 #include "TestTempDir.h"
@@ -8,8 +9,6 @@
 #include <openvdb/tools/LevelSetSphere.h>
 #include <gtest/gtest.h>
 
-#include <fstream>
-#include <iterator>
 #include <stdexcept>
 #include <string>
 
@@ -17,11 +16,6 @@ using namespace cascade;
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string bytesOf(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
 
 /// A level set of a few thousand leaves and a half-float vector grid over its band.
 openvdb::GridCPtrVec surfaceAndVelocity() {
@@ -57,7 +51,7 @@ TEST(VdbWriter, WritesTheBytesOpenVdbsFileWriterWrites) {
     reference.write(grids);
     reference.close();
     writeVdbFile(dir / "buffered.vdb", grids, compression);
-    const std::string expected = bytesOf(dir / "reference.vdb"), written = bytesOf(dir / "buffered.vdb");
+    const std::string expected = readTextFile(dir / "reference.vdb"), written = readTextFile(dir / "buffered.vdb");
     if (compression == activeMask) {  // flushed and seeked across buffers
       ASSERT_GT(expected.size(), std::size_t(8) << 20) << "smaller than one buffer";
     }
