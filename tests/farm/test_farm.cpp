@@ -185,28 +185,33 @@ TEST(Farm, AFarmedFloatingBodyShotWithWhitewaterEqualsALocalRun) {
 }
 
 TEST(Farm, AKilledRenderTaskIsNamedByStatusAndCompletedByResume) {
+  // One render task of 15 frames per chunk, so the task cancelled below has
+  // frames left when scancel reaches it.
   const fs::path out = scratch("killed");
-  ASSERT_FALSE(submitShot(bunnyScene(), out, 15, 5).empty());
+  ASSERT_FALSE(submitShot(bunnyScene(), out, 15, 15).empty());
   // While it runs, a second submit into the same OUT is refused.
   const fs::path again = out.string() + ".again.log";
   EXPECT_EQ(run(concat({"farm", "submit"}, concat(bunnyScene(), {"-o", out.string()})), again), 2);
   EXPECT_NE(readLog(again).find("has jobs queued or running"), std::string::npos) << readLog(again);
 
-  // Cancel the first render task seen running.
+  // Cancel the first chunk's render task once its first picture is on disk:
+  // it is then running with 14 frames to go. (Polling squeue for RUNNING
+  // instead lost the race on a loaded machine: a task seen late finished first.)
   const farm::FarmRecord record = farm::readRecord(out);
-  std::vector<std::string> renderArrays;
+  std::string firstTask;
+  int renderArrays = 0;
   for (const farm::RecordedJob& job : record.rounds[0].jobs)
-    if (job.stage == farm::Stage::Render) renderArrays.push_back(job.id);
-  ASSERT_EQ(renderArrays.size(), 2u);
+    if (job.stage == farm::Stage::Render) {
+      ++renderArrays;
+      if (job.first == 1 && job.tasks == std::vector<int>{1}) firstTask = job.id + "_0";
+    }
+  ASSERT_EQ(renderArrays, 2);
+  ASSERT_FALSE(firstTask.empty()) << "no render task of frames 1-15";
   std::string killed;
   const auto until = std::chrono::steady_clock::now() + std::chrono::minutes(10);
   while (killed.empty() && std::chrono::steady_clock::now() < until) {
-    for (const auto& [id, state] : farm::queryJobs(renderArrays))
-      if (state.state == "RUNNING") {
-        killed = id;
-        break;
-      }
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (fs::exists(OutputLayout(out).render(1))) killed = firstTask;
+    else std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   ASSERT_FALSE(killed.empty()) << "no render task ran";
   const farm::CommandOutput cancel = farm::runCommand({"scancel", killed});
