@@ -316,6 +316,9 @@ TEST(Farm, ACancelledShotResumesToTheSameParticlesAsOneBake) {
 // `mpirun -np 1` bake's bit for bit (docs/distributed.md).
 TEST(Farm, AnMpiBakeOnTwoRanksPerChunkEqualsOneRankFrameForFrame) {
   if (!distributed::mpiBuilt()) GTEST_SKIP() << "built without MPI";
+#ifdef CASCADE_MPI_LSAN_OPTIONS
+  ::setenv("LSAN_OPTIONS", CASCADE_MPI_LSAN_OPTIONS, 1);  // Open MPI's own leaks (sanitizer build)
+#endif
   const std::vector<std::string> scene{kScenes + "/dambreak.json", "--set", "size=seed", "--set",
                                        "output.end_time=0.1"};
   const fs::path local = scratch("mpi_local"), out = scratch("mpi_farmed");
