@@ -50,7 +50,9 @@ public:
         for (std::size_t c = 0; c < mWidth; ++c) sums[c] += mRecords[row * mWidth + c];
     } else {
       static_assert(sizeof(Vec3d) == 3 * sizeof(double), "Vec3d is three packed doubles");
-      reproducibleSums(mRecords.data()->data(), rows, 3 * mWidth, sums.data()->data(), mPartition);
+      // A rank with no layer entries has no records (still a collective call).
+      const double* records = mRecords.empty() ? nullptr : mRecords.data()->data();
+      reproducibleSums(records, rows, 3 * mWidth, sums.data()->data(), mPartition);
     }
     return sums;
   }
