@@ -78,15 +78,16 @@ std::vector<Eigen::Vector3f> sampleVelocity(const openvdb::Vec3SGrid& velocity,
         for (int corner = 0; corner < 8; ++corner) {
           const int dx = corner >> 2, dy = (corner >> 1) & 1, dz = corner & 1;
           const openvdb::Coord c = base[j].offsetBy(dx, dy, dz);
+          const openvdb::Index at = LeafT::coordToOffset(c);
           const openvdb::Vec3s* values = cornerValues[j][corner];
           openvdb::Vec3s tile;
           if (!values) {  // no leaf there: an active tile's value, if any (grids from elsewhere)
             if (!access.probeValue(c, tile)) continue;
-          } else if (!cornerMask[j][corner]->isOn(LeafT::coordToOffset(c))) {
+          } else if (!cornerMask[j][corner]->isOn(at)) {
             continue;
           }
           const float w = wx[dx] * wy[dy] * wz[dz];
-          sum += w * (values ? values[LeafT::coordToOffset(c)] : tile);
+          sum += w * (values ? values[at] : tile);
           weightSum += w;
         }
         const openvdb::Vec3s v = weightSum > 0 ? sum / weightSum : openvdb::Vec3s(0.0f);
