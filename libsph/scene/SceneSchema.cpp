@@ -156,7 +156,7 @@ const std::vector<KeyDoc>& keyDocs() {
       {"output", "", "Frames and probe samples."},
       {"output.fps", "1/s", "Frames per second of the particle caches (and of every later stage)."},
       {"output.end_time", "s", "Simulated time of the last frame; at most 100000 frames."},
-      {"output.probe_rate", "1/s", "Probe samples per simulated second (OUT/probes.csv)."},
+      {"output.probe_rate", "1/s", "Probe samples per simulated second (OUT/probes.csv). A sample between two steps is interpolated linearly from the probes at both; probes never shorten a step, so the rate changes probes.csv and nothing else."},
       {"surface", "", "What `cascade surface` does by default; its options override (docs/surfacing.md)."},
       {"surface.method", "", "Level set from particles: `union` of spheres, `smooth` (Zhu & Bridson 2005), or `anisotropic` (Yu & Turk 2013)."},
       {"surface.mesh_format", "", "Mesh file format: ASCII OBJ or binary PLY with velocities."},

@@ -66,12 +66,12 @@
 /// speed of sound), dt <= 0.06 sqrt(h / a_max) with a_max the largest
 /// non-pressure acceleration, and dt <= 0.2 h / sqrt(kappa_max) (maxTimeStep(): a wall
 /// particle and its own mirror image act as an explicit spring whose stiffness grows
-/// with kappa, i.e. with depth). A step the Simulation shortened to land on a frame or
-/// probe time (dt == maxTimeStep and less than half the last regular step) removes
-/// only its share of the density error already there, keeps the warm starts, and
-/// reports the last regular step's pressure and forces (with the half warm start of the
-/// earlier Jacobi solve its own stiffness was not the water's pressure; kept so that frames
-/// and probes report regular steps).
+/// with kappa, i.e. with depth). A step the Simulation shortened to land on a frame
+/// (dt == maxTimeStep and less than half the last regular step) removes only its share
+/// of the density error already there, keeps the warm starts, and reports the last
+/// regular step's pressure and forces (with the half warm start of the earlier Jacobi
+/// solve its own stiffness was not the water's pressure; kept so that frames report
+/// regular steps).
 /// Robustness: a step removes at most 1 % of a compression already there (so
 /// overlapping particles part over several steps); alpha_i is 0 for a particle with nearly no neighbours (not 1/0);
 /// the divergence solve skips particles with fewer than 20 neighbours (free
@@ -164,7 +164,7 @@ private:
 
   // State (follows the particles, saved in checkpoints): warm starts, m^2/s^2.
   std::vector<Real> mDensityKappa, mDivergenceKappa;
-  double mRegularStep = 0;  // s, the last step not shortened to land on a frame or probe time
+  double mRegularStep = 0;  // s, the last step not shortened to land on a frame time
   std::vector<Real> mWallAge;  // s each particle has been within one spacing of a wall (wall shear)
 
   // Per-step scratch.

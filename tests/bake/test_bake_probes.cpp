@@ -1,6 +1,7 @@
 // Probes and caches of a bake: the pressure probe of a tank at rest
-// against rho g d; the probes.csv layout; cache round trip of bake-like data
-// within the codecs' stated precision (ParticleCache.h).
+// against rho g d; the probes.csv layout; the probe rate changes nothing but
+// probes.csv; cache round trip of bake-like data within the codecs' stated
+// precision (ParticleCache.h).
 #include "TestTempDir.h"
 #include "libsph/io/AtomicFile.h"
 #include "libsph/io/ParticleCache.h"
@@ -117,4 +118,45 @@ TEST(BakeProbes, CacheRoundTripWithinCodecPrecision) {
   EXPECT_LE(worstVelocity, std::ldexp(1.0, -11));
   EXPECT_EQ(read.time, frame.time);
   fs::remove(file);
+}
+
+// Probes are read, never steered to: a probe time inside a step reads the probes at
+// the step's ends, interpolated, so the probe rate changes probes.csv and nothing
+// else. DFSPH (whose steps shortened to land on probe times changed the water's
+// pressure) on the dam break at 64 Hz and 1024 Hz (exact binary intervals): the same
+// caches bit for bit, and every 64 Hz row is the 1024 Hz row of the same time.
+TEST(BakeProbes, TheProbeRateChangesOnlyTheProbesFile) {
+  const fs::path dir = cascade::test::freshTempDir("probe_rate");
+  std::map<int, std::vector<std::string>> rows;
+  for (int rate : {64, 1024}) {
+    const fs::path out = dir / std::to_string(rate);
+    const scene::Scene scene = scene::loadScene(
+        fs::path(CASCADE_SOURCE_DIR) / "scenes" / "dambreak.json",
+        {"size=seed", "solver.type=dfsph", "output.fps=16", "output.end_time=0.1875",
+         "output.probe_rate=" + std::to_string(rate)});
+    scene::BakeOptions options;
+    options.outDir = out;
+    ASSERT_TRUE(scene::bakeScene(scene, options).complete);
+    std::istringstream in(readTextFile(out / "probes.csv"));
+    for (std::string line; std::getline(in, line);) rows[rate].push_back(line);
+  }
+  for (int frame = 1; frame <= 3; ++frame) {
+    const std::string name = "particles." + std::string(frame < 10 ? "000" : "00") + std::to_string(frame) + ".vdb";
+    const ParticleFrame a = readParticleFrame(dir / "64" / "particles" / name);
+    const ParticleFrame b = readParticleFrame(dir / "1024" / "particles" / name);
+    ASSERT_EQ(a.size(), b.size()) << name;
+    EXPECT_EQ(a.time, b.time) << name;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      ASSERT_EQ(a.position[i], b.position[i]) << name << " particle " << i;
+      ASSERT_EQ(a.velocity[i], b.velocity[i]) << name << " particle " << i;
+    }
+  }
+  // Header plus 0.1875 s at each rate, t = 0 included.
+  ASSERT_EQ(rows[64].size(), 1u + 13u);
+  ASSERT_EQ(rows[1024].size(), 1u + 193u);
+  EXPECT_EQ(rows[64][0], rows[1024][0]);
+  for (std::size_t k = 1; k < rows[64].size(); ++k) EXPECT_EQ(rows[64][k], rows[1024][1 + 16 * (k - 1)]) << "row " << k;
+  // The front moves between frames: the rows are the water's, not a held value.
+  EXPECT_NE(rows[1024][100].substr(rows[1024][100].find(',')), rows[1024][101].substr(rows[1024][101].find(',')));
+  fs::remove_all(dir);
 }
