@@ -4,6 +4,7 @@
 // precision (ParticleCache.h).
 #include "TestTempDir.h"
 #include "libsph/io/AtomicFile.h"
+#include "libsph/io/OutputLayout.h"
 #include "libsph/io/ParticleCache.h"
 #include "libsph/scene/Bake.h"
 #include "libsph/scene/SceneJson.h"
@@ -141,14 +142,13 @@ TEST(BakeProbes, TheProbeRateChangesOnlyTheProbesFile) {
     for (std::string line; std::getline(in, line);) rows[rate].push_back(line);
   }
   for (int frame = 1; frame <= 3; ++frame) {
-    const std::string name = "particles." + std::string(frame < 10 ? "000" : "00") + std::to_string(frame) + ".vdb";
-    const ParticleFrame a = readParticleFrame(dir / "64" / "particles" / name);
-    const ParticleFrame b = readParticleFrame(dir / "1024" / "particles" / name);
-    ASSERT_EQ(a.size(), b.size()) << name;
-    EXPECT_EQ(a.time, b.time) << name;
+    const ParticleFrame a = readParticleFrame(OutputLayout(dir / "64").particles(frame));
+    const ParticleFrame b = readParticleFrame(OutputLayout(dir / "1024").particles(frame));
+    ASSERT_EQ(a.size(), b.size()) << "frame " << frame;
+    EXPECT_EQ(a.time, b.time) << "frame " << frame;
     for (std::size_t i = 0; i < a.size(); ++i) {
-      ASSERT_EQ(a.position[i], b.position[i]) << name << " particle " << i;
-      ASSERT_EQ(a.velocity[i], b.velocity[i]) << name << " particle " << i;
+      ASSERT_EQ(a.position[i], b.position[i]) << "frame " << frame << ", particle " << i;
+      ASSERT_EQ(a.velocity[i], b.velocity[i]) << "frame " << frame << ", particle " << i;
     }
   }
   // Header plus 0.1875 s at each rate, t = 0 included.
