@@ -27,17 +27,21 @@ namespace cascade::scene {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
+namespace {
+/// The suffixes of a probe's probes.csv columns (one column per suffix, named NAME + suffix).
+const std::vector<const char*>& columnSuffixes(const Probe& probe) {
+  static const std::vector<const char*> vector{"_x", "_y", "_z"}, body{"_x", "_y", "_z", "_vx", "_vy", "_vz"},
+      scalar{""};
+  if (probe.type == "force" || probe.type == "velocity") return vector;
+  if (probe.type == "body") return body;
+  return scalar;
+}
+} // namespace
+
 std::string probeHeader(const Scene& scene) {
   std::string header = "t";
-  for (const Probe& probe : scene.probes) {
-    if (probe.type == "force" || probe.type == "velocity")
-      header += "," + probe.name + "_x," + probe.name + "_y," + probe.name + "_z";
-    else if (probe.type == "body")
-      header += "," + probe.name + "_x," + probe.name + "_y," + probe.name + "_z," + probe.name + "_vx," + probe.name +
-                "_vy," + probe.name + "_vz";
-    else
-      header += "," + probe.name;
-  }
+  for (const Probe& probe : scene.probes)
+    for (const char* suffix : columnSuffixes(probe)) header += "," + probe.name + suffix;
   return header + "\n";
 }
 
@@ -103,24 +107,20 @@ std::vector<double> probeValues(const Scene& scene, const Simulation& simulation
 std::string probeRow(const Scene& scene, double t, const std::vector<double>& values) {
   std::string row = formatValue(t);
   std::size_t column = 0;
-  for (const Probe& probe : scene.probes) {
-    const std::size_t width = probe.type == "velocity" || probe.type == "force" ? 3 : probe.type == "body" ? 6 : 1;
-    for (std::size_t k = 0; k < width && column < values.size(); ++k, ++column)
+  for (const Probe& probe : scene.probes)
+    for (std::size_t k = 0; k < columnSuffixes(probe).size(); ++k, ++column)
       row += "," + (probe.type == "velocity" && std::isnan(values[column]) ? std::string() : formatValue(values[column]));
-  }
   return row + "\n";
 }
 
-/// Values at time t from samples at t0 and t1 (t0 <= t <= t1), linear in time; where
-/// either reads nothing (NaN), the nearer sample's value.
+/// Values at time t from samples of the same probes at t0 and t1 (t0 <= t <= t1),
+/// linear in time; where either reads nothing (NaN), the nearer sample's value.
 std::vector<double> interpolateProbes(double t0, const std::vector<double>& v0, double t1, const std::vector<double>& v1,
                                       double t) {
   const double w = t1 > t0 ? std::clamp((t - t0) / (t1 - t0), 0.0, 1.0) : 1.0;
   std::vector<double> out(v1.size());
-  for (std::size_t k = 0; k < v1.size(); ++k) {
-    const double a = k < v0.size() ? v0[k] : std::nan("");
-    out[k] = std::isnan(a) || std::isnan(v1[k]) ? (w < 0.5 && k < v0.size() ? a : v1[k]) : a + w * (v1[k] - a);
-  }
+  for (std::size_t k = 0; k < v1.size(); ++k)
+    out[k] = std::isnan(v0[k]) || std::isnan(v1[k]) ? (w < 0.5 ? v0[k] : v1[k]) : v0[k] + w * (v1[k] - v0[k]);
   return out;
 }
 
