@@ -125,6 +125,7 @@ SimulationSettings simulationSettings(const Scene& scene) {
   solver.instabilitySpeedFactor = Real(s.instabilitySpeedFactor);
   solver.densityTolerance = Real(s.densityTolerance);
   solver.divergenceTolerance = Real(s.divergenceTolerance);
+  solver.twoLevelPreconditioner = s.preconditioner == "two_level";
   solver.maxIterations = int(s.maxIterations);
   solver.cflFactor = Real(s.cfl);
   solver.minTimeStep = Real(s.dtMin);

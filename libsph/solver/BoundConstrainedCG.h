@@ -22,6 +22,12 @@
 ///   - `double weight(std::size_t i)`, `double tolerance`, `double maxResidual`: the solve
 ///     stops when sum_i weight(i) |pg_i| <= tolerance and max_i weight(i) |pg_i| <=
 ///     maxResidual, pg the projected gradient (weight: back to the caller's units).
+/// Optionally, a preconditioner (then CG is preconditioned CG, Hestenes & Stiefel's with
+/// r . M r in place of r . r):
+///   - `void precondition(std::vector<double>& z, const std::vector<char>& bound)`: z holds
+///     the free set's residual r (0 on the bound set, bound[i] != 0) and becomes M r, 0 on
+///     the bound set, M symmetric positive definite on the free set
+///     (DFSPH's two-level coarse correction: CoarseCorrection.h).
 /// Every reduction is a fixed-order sum (ParallelSum.h): the same iterates on any
 /// number of threads. A problem split over MPI ranks adds, optionally,
 ///   - `double sumTerms(std::vector<double>& terms)`: the sum of every rank's terms (scratch)
@@ -87,6 +93,12 @@ ErrorNorms errorNorms(const Problem& problem, std::size_t n, Error&& error, Coun
 }
 
 namespace detail {
+template <typename P, typename = void>
+struct Preconditioned : std::false_type {};
+template <typename P>
+struct Preconditioned<P, std::void_t<decltype(std::declval<P&>().precondition(std::declval<std::vector<double>&>(),
+                                                                                std::declval<const std::vector<char>&>()))>>
+    : std::true_type {};
 template <typename P, typename = void>
 struct SplitOverRanks : std::false_type {};
 template <typename P>
@@ -166,6 +178,17 @@ BoundConstrainedResult solveBoundConstrained(Problem& problem, std::vector<doubl
   auto isFree = [&](std::size_t i) { return !bound[i]; };
   bool searching = false;  // p is the live CG direction on the current bound set
   ErrorNorms norms;
+  // Preconditioned CG (a problem with precondition(z, bound)): z = M r, rz = r . z.
+  std::vector<double> z;
+  double rz = 0;
+  auto precondition = [&]() {
+    if constexpr (detail::Preconditioned<Problem>::value) {
+      z.resize(n);
+      forEachIndex(n, [&](std::size_t i) { z[i] = -freeGradient(i); });
+      problem.precondition(z, bound);
+      rz = sum([&](std::size_t i) { return bound[i] ? 0.0 : -g[i] * z[i]; });
+    }
+  };
   while (true) {
     // The bound set of (x, g); its variables go to 0.
     const double changed = sum([&](std::size_t i) {
@@ -191,8 +214,13 @@ BoundConstrainedResult solveBoundConstrained(Problem& problem, std::vector<doubl
     // CG on the free set (residual -g_F); x may go negative on the way (the next bound
     // set takes those). A new bound set starts a new CG; an unchanged one resumes it.
     if (!searching) {
-      forEachIndex(n, [&](std::size_t i) { p[i] = -freeGradient(i); });
       norms = normsOf(freeGradient, isFree, none);
+      if constexpr (detail::Preconditioned<Problem>::value) {
+        precondition();
+        forEachIndex(n, [&](std::size_t i) { p[i] = z[i]; });
+      } else {
+        forEachIndex(n, [&](std::size_t i) { p[i] = -freeGradient(i); });
+      }
       searching = true;
     }
     const double phaseSum = std::max(problem.tolerance, phaseReduction * norms.sum);
@@ -206,14 +234,25 @@ BoundConstrainedResult solveBoundConstrained(Problem& problem, std::vector<doubl
         searching = false;
         break;
       }
-      const double alpha = norms.squares / pAp;
-      const double last = norms.squares;
+      // CG: r . r for the step and the next direction; PCG: r . M r.
+      const double last = detail::Preconditioned<Problem>::value ? rz : norms.squares;
+      if (!(last > 0)) {  // M r = 0: nothing left to reduce in M's norm
+        searching = false;
+        break;
+      }
+      const double alpha = last / pAp;
       norms = normsOf(freeGradient, isFree, [&](std::size_t i) {
         x[i] += alpha * p[i];
         g[i] += alpha * Ap[i];
       });
-      const double beta = norms.squares / last;
-      forEachIndex(n, [&](std::size_t i) { p[i] = -freeGradient(i) + beta * p[i]; });
+      if constexpr (detail::Preconditioned<Problem>::value) {
+        precondition();
+        const double beta = rz / last;
+        forEachIndex(n, [&](std::size_t i) { p[i] = z[i] + beta * p[i]; });
+      } else {
+        const double beta = norms.squares / last;
+        forEachIndex(n, [&](std::size_t i) { p[i] = -freeGradient(i) + beta * p[i]; });
+      }
     }
     if (norms.squares == 0 && changed == 0) break;  // nothing left to move, and nothing flips
   }

@@ -152,6 +152,10 @@ struct SolverSettings {
   Real divergenceTolerance = Real(0.0002);
   /// DFSPH: most operator products of each solve per step (docs/dfsph-deep-water.md).
   int maxIterations = 300;
+  /// DFSPH constant-density solve: Jacobi (false) or two-level, Jacobi plus a coarse
+  /// correction on cells of 2 h (CoarseCorrection.h; one process only). Measured in
+  /// docs/dfsph-deep-water.md, "Two levels".
+  bool twoLevelPreconditioner = false;
 
   // --- adaptive time step ---
   /// dt = min(cflFactor h / (c + v_max), 0.125 h^2 / nu (viscous), 0.25 sqrt(h / a_max) (force)),

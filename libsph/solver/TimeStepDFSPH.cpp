@@ -5,6 +5,7 @@
 #include "libsph/boundary/BoundaryParticles.h"
 #include "libsph/boundary/WallShearStress.h"
 #include "libsph/solver/BoundConstrainedCG.h"
+#include "libsph/solver/CoarseCorrection.h"
 #include "libsph/solver/DomainPartition.h"
 #include "libsph/solver/ParallelSum.h"
 #include "libsph/solver/ReactionSums.h"
@@ -433,6 +434,8 @@ void TimeStepDFSPH::prepare(StepContext& c) {
   auto viscousFactor = [&](Real vx) { return Real(10) * nu + (vx < 0 ? artificial : Real(0)); };
   std::vector<Vec3r>& acceleration = c.acceleration;
   static_assert(sizeof(PairTerm) == 4 * sizeof(float), "pair terms are 16-byte records");
+  mPosition = particles.position.data();
+  mSupportRadius = h;
   const bool avx2 = haveAvx2() && std::getenv("CASCADE_NO_AVX2") == nullptr;
   const PairConstants pairConstants{h2, kernel.inverseSupport, kernel.valueCoeff, kernel.gradientCoeff, volume, epsilon2,
                                     nu, artificial};
@@ -727,7 +730,33 @@ BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity
     double largest(double local) const { return this->self.mPartition->maxOverRanks(local); }
   };
   SplitProblem split{problem};
+  // The two-level preconditioner (solver.preconditioner = two_level; one process: the
+  // coarse operator is not split over ranks): coarse cells of 2 h, the smallest that
+  // couple only neighbouring cells (CoarseCorrection.h).
+  struct TwoLevelProblem : Problem {
+    const CoarseCorrection* coarse;
+    void precondition(std::vector<double>& z, const std::vector<char>& bound) const { coarse->apply(z, bound); }
+  };
+  bool twoLevel = false;
+  if (mTwoLevel && mPartition == nullptr) {
+    mWeight.resize(n);
+    forEachIndex(n, [&](std::size_t i) { mWeight[i] = problem.weight(i); });
+    twoLevel = mCoarse.build(mPosition, mWeight, Real(2) * mSupportRadius, scale,
+                             [&](std::size_t k, std::vector<CoarseCorrection::Coefficient>& row) {
+                               // the velocity change of k per unit stiffness of each source (velocityChange)
+                               row.push_back({std::uint32_t(k), mGradientSum[k]});
+                               const PairTerm* pair = mPairs.data() + mPairOffsets[k];
+                               for (std::uint32_t q = 0; q < mPairCount[k]; ++q)
+                                 row.push_back({pair[q].neighbor, Vec3r(pair[q].gx, pair[q].gy, pair[q].gz)});
+                               const std::uint32_t l = mLayerIndex[k];
+                               if (l != kNotInLayer)
+                                 for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g)
+                                   row.push_back({mGhostSource[g], mGhostGradient[g]});
+                             });
+  }
+  TwoLevelProblem preconditioned{problem, &mCoarse};
   const BoundConstrainedResult result = mPartition ? solveBoundConstrained(split, x, g, maxProducts)
+                                        : twoLevel ? solveBoundConstrained(preconditioned, x, g, maxProducts)
                                                    : solveBoundConstrained(problem, x, g, maxProducts);
   forEachIndex(n, [&](std::size_t i) { mKappaStep[i] = Real(S[i] * x[i]) - kappa[i]; });
   applyStep(velocity, kappa, dt);
@@ -751,6 +780,7 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   // Over MPI ranks the unknowns are the owned particles [0, owned); the halo after them
   // takes its values from the owners (shareWithHalo) and sums run over every rank.
   mPartition = c.partition;
+  mTwoLevel = c.settings.solver.twoLevelPreconditioner;
   mOwned = c.ownedCount();
   mGlobalCount = std::max(overRanks(double(mOwned)), 1.0);
   if (n == 0 && mPartition == nullptr) return;

@@ -30,7 +30,8 @@
 ///      rho*_i = rho_i + dt D rho_i/Dt, the stiffness kappa >= 0 that removes the predicted
 ///      compression where there is pressure (kappa_i > 0 only where rho*_i would exceed
 ///      rho_0): a bound-constrained problem, solved by the primal-dual active set method with
-///      Jacobi-scaled conjugate gradients (BoundConstrainedCG.h), from the whole stiffness of
+///      Jacobi-scaled conjugate gradients (BoundConstrainedCG.h; with solver.preconditioner =
+///      two_level, plus a coarse correction on cells of 2 h: CoarseCorrection.h), from the whole stiffness of
 ///      the last step; it stops when the mean compression is below densityTolerance and every
 ///      particle's below 2 % of it (the mean alone is diluted by depth:
 ///      docs/dfsph-deep-water.md), at most maxIterations operator products;
@@ -79,6 +80,7 @@
 #pragma once
 
 #include "libsph/solver/BoundConstrainedCG.h"
+#include "libsph/solver/CoarseCorrection.h"
 #include "libsph/solver/TimeStep.h"
 
 #include <vector>
@@ -178,6 +180,11 @@ private:
   };
   std::vector<PairTerm> mPairs;               // row i at the neighbour list's offsets[i], mPairCount[i] used
   const std::uint32_t* mPairOffsets = nullptr;
+  const Vec3r* mPosition = nullptr;  // the particles' positions during the step
+  Real mSupportRadius = 0;
+  bool mTwoLevel = false;       // SolverSettings::twoLevelPreconditioner
+  CoarseCorrection mCoarse;     // the constant-density solve's two-level preconditioner
+  std::vector<double> mWeight;  // its scaled basis: 1 / S_i
   std::vector<std::uint32_t> mPairCount, mNeighborCount;
   std::vector<Vec3r> mGradientSum;            // G_i = sum_j V grad W_ij over fluid and mirror neighbours
   // Mirror (ghost) pairs of the boundary layer: compressed rows over layer().
