@@ -4,8 +4,8 @@
 ///        (additive two-level Schwarz with piecewise-constant coarse space: Nicolaides
 ///        1987, "Deflation of conjugate gradients with applications to boundary value
 ///        problems", SIAM J. Numer. Anal. 24(2); Toselli & Widlund 2005, "Domain
-///        Decomposition Methods", ch. 3; smoothed or plain aggregation as in Vanek,
-///        Mandel & Brezina 1996).
+///        Decomposition Methods", ch. 3; the aggregates are plain, not smoothed as in
+///        Vanek, Mandel & Brezina 1996).
 ///
 /// The solve's operator is A = dt^2 G^T G, with G the velocity change of a stiffness
 /// vector (TimeStepDFSPH::velocityChange: (G s)_k = s_k G_k + sum_j s_j V grad W_kj) and
