@@ -85,7 +85,8 @@ struct Solver {
   double densityTolerance = 0.0005;  ///< dfsph
   double divergenceTolerance = 0.0002;///< dfsph (SolverSettings.h)
   std::int64_t maxIterations = 300;  ///< dfsph (SolverSettings.h)
-  std::string preconditioner = "jacobi";  ///< dfsph: jacobi, two_level
+  std::string preconditioner = "two_level";  ///< dfsph: two_level, jacobi
+  double particleToleranceShare = 0;        ///< dfsph (SolverSettings.h); 0: by preconditioner
   double supportFactor = 2.0;        ///< support radius h = support_factor * spacing
   double cfl = 0.4;
   double dtMin = 1e-6;

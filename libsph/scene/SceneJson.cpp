@@ -756,7 +756,8 @@ Scene parseSceneIn(const json& value, const Context& context) {
     s.densityTolerance = solver.numberIn("density_tolerance", s.densityTolerance, 1e-7, 0.5);
     s.divergenceTolerance = solver.numberIn("divergence_tolerance", s.divergenceTolerance, 1e-7, 10);
     s.maxIterations = solver.integer("max_iterations", s.maxIterations, 1);
-    s.preconditioner = solver.choice("preconditioner", s.preconditioner, {"jacobi", "two_level"});
+    s.preconditioner = solver.choice("preconditioner", s.preconditioner, {"two_level", "jacobi"});
+    s.particleToleranceShare = solver.numberIn("particle_tolerance_share", s.particleToleranceShare, 0, 1e3);
     s.supportFactor = solver.numberIn("support_factor", s.supportFactor, 1.0, 4.0);
     s.cfl = solver.numberIn("cfl", s.cfl, 1e-3, 1.0);
     s.dtMin = solver.number("dt_min", s.dtMin, Range::Positive);
@@ -958,6 +959,7 @@ json sceneToJson(const Scene& scene) {
               {"divergence_tolerance", s.divergenceTolerance},
               {"max_iterations", s.maxIterations},
               {"preconditioner", s.preconditioner},
+              {"particle_tolerance_share", s.particleToleranceShare},
               {"support_factor", s.supportFactor},
               {"cfl", s.cfl},
               {"dt_min", s.dtMin},

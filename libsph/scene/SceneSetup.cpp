@@ -126,6 +126,7 @@ SimulationSettings simulationSettings(const Scene& scene) {
   solver.densityTolerance = Real(s.densityTolerance);
   solver.divergenceTolerance = Real(s.divergenceTolerance);
   solver.twoLevelPreconditioner = s.preconditioner == "two_level";
+  solver.particleToleranceShare = Real(s.particleToleranceShare);
   solver.maxIterations = int(s.maxIterations);
   solver.cflFactor = Real(s.cfl);
   solver.minTimeStep = Real(s.dtMin);

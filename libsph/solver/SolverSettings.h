@@ -152,10 +152,15 @@ struct SolverSettings {
   Real divergenceTolerance = Real(0.0002);
   /// DFSPH: most operator products of each solve per step (docs/dfsph-deep-water.md).
   int maxIterations = 300;
-  /// DFSPH constant-density solve: Jacobi (false) or two-level, Jacobi plus a coarse
-  /// correction on cells of 2 h (CoarseCorrection.h; one process only). Measured in
-  /// docs/dfsph-deep-water.md, "Two levels".
-  bool twoLevelPreconditioner = false;
+  /// DFSPH constant-density solve: two-level, Jacobi plus a coarse correction on cells of
+  /// 2 h (CoarseCorrection.h; one process only: over MPI ranks Jacobi), or Jacobi alone
+  /// (false). Measured in docs/dfsph-deep-water.md, "Two levels".
+  bool twoLevelPreconditioner = true;
+  /// DFSPH constant-density solve: the largest predicted compression of any one particle,
+  /// as a share of densityTolerance (the mean alone is diluted by depth); 0: 0.2 with the
+  /// two-level preconditioner, 0.02 with Jacobi alone, the largest shares that hold a
+  /// 200-layer column at rest (docs/dfsph-deep-water.md, "Two levels").
+  Real particleToleranceShare = Real(0);
 
   // --- adaptive time step ---
   /// dt = min(cflFactor h / (c + v_max), 0.125 h^2 / nu (viscous), 0.25 sqrt(h / a_max) (force)),

@@ -42,9 +42,12 @@ double millisecondsSince(Clock::time_point start) {
 constexpr Real kDivergenceWarmStart = Real(0.5);  // divergence solve: half the last stiffness (SPlisHSPlasH)
 // Constant-density solve: primal-dual active set with CG on the free set
 // (BoundConstrainedCG.h). It stops when the mean predicted compression is below the
-// tolerance and every particle's below this share of it (the per-particle bound is not
-// diluted by depth). Why these values: docs/dfsph-deep-water.md, "Constants".
-constexpr double kMaxResidualShare = 0.02;
+// tolerance and every particle's below a share of it (the per-particle bound is not
+// diluted by depth): SolverSettings::particleToleranceShare, or by default these, the
+// largest that hold a 200-layer column at rest with each preconditioner (the coarse
+// correction converges the column's smooth modes that the bound otherwise has to force).
+// Why: docs/dfsph-deep-water.md, "Constants" and "Two levels".
+constexpr double kMaxResidualShare = 0.02, kTwoLevelResidualShare = 0.2;
 // dt <= kStiffnessStepFactor h / sqrt(kappa_max): a CFL condition on the speed of a
 // pressure signal, sqrt(kappa) (the wall layer's explicit spring; ibid.).
 constexpr double kStiffnessStepFactor = 0.2;
@@ -875,8 +878,12 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
       return existing + dt * densityRate(velocity, i);
     };
     const double tolerance = kDensityToleranceMargin * double(solver.densityTolerance);
+    const bool twoLevel = solver.twoLevelPreconditioner && mPartition == nullptr;
+    const double particleShare = solver.particleToleranceShare > 0 ? double(solver.particleToleranceShare)
+                                 : twoLevel                        ? kTwoLevelResidualShare
+                                                                   : kMaxResidualShare;
     const BoundConstrainedResult result =
-        solveOneSided(velocity, mDensityKappa, dt, residual, tolerance * mGlobalCount, kMaxResidualShare * tolerance,
+        solveOneSided(velocity, mDensityKappa, dt, residual, tolerance * mGlobalCount, particleShare * tolerance,
                       maxIterations, mStatistics.densityError);
     mStatistics.densityIterations = result.products;
   }

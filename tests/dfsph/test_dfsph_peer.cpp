@@ -5,8 +5,9 @@
 // mean(max(rho/rho_0 - 1, 0)), to hold against SPlisHSPlasH 2.16 DFSPH measured
 // here: 0.044 % average compression, 60.9 ms/step, about 33 s per simulated second.
 // CASCADE_PEER_END_TIME (s) shortens the run for profiling; CASCADE_PEER_TOLERANCE sets
-// the density tolerance (default 0.044 %); CASCADE_PEER_TWO_LEVEL=1 uses the two-level
-// preconditioner (solver.preconditioner = two_level).
+// the density tolerance (default 0.044 %); CASCADE_PEER_JACOBI=1 solves with Jacobi alone
+// (solver.preconditioner = jacobi); CASCADE_PEER_PARTICLE_SHARE sets the
+// per-particle bound's share of the tolerance (solver.particle_tolerance_share).
 #include "libsph/boundary/BoxBoundary.h"
 #include "libsph/solver/Simulation.h"
 #include "libsph/solver/TimeStepDFSPH.h"
@@ -29,7 +30,8 @@ TEST(DFSPHPeer, DamBreak59kParticles) {
   // that the measured compression (the densities at the start of each step) stays below.
   settings.solver.densityTolerance = Real(0.00044);
   if (const char* tolerance = std::getenv("CASCADE_PEER_TOLERANCE")) settings.solver.densityTolerance = Real(std::atof(tolerance));
-  settings.solver.twoLevelPreconditioner = std::getenv("CASCADE_PEER_TWO_LEVEL") != nullptr;
+  settings.solver.twoLevelPreconditioner = std::getenv("CASCADE_PEER_JACOBI") == nullptr;
+  if (const char* share = std::getenv("CASCADE_PEER_PARTICLE_SHARE")) settings.solver.particleToleranceShare = Real(std::atof(share));
   Simulation sim(settings);
   sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(5.0, 1.7, 3.5)));
   const std::size_t count = sim.addFluidBox(Vec3r(0, 0, 0), Vec3r(1.75, 1.7, 2.5));

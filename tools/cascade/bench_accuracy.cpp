@@ -47,7 +47,8 @@
 // a/54 bakes in 23-29 s here; a/72 would take over 60 s, scaled by particles and steps).
 // Diagnostics (convergence studies): CASCADE_ACCURACY_SLIP=free|no|laminar,
 // CASCADE_ACCURACY_VISCOSITY (Pa s), CASCADE_ACCURACY_ARTIFICIAL_VISCOSITY (alpha),
-// CASCADE_ACCURACY_DENSITY_TOLERANCE (DFSPH), CASCADE_ACCURACY_TANK_ONLY=1 (no dam break),
+// CASCADE_ACCURACY_DENSITY_TOLERANCE, CASCADE_ACCURACY_PARTICLE_SHARE (the per-particle
+// share of it) and CASCADE_ACCURACY_PRECONDITIONER=two_level (DFSPH), CASCADE_ACCURACY_TANK_ONLY=1 (no dam break),
 // CASCADE_ACCURACY_DAMBREAK_ONLY=1 (no hydrostatic tank; its columns read nan),
 // CASCADE_ACCURACY_CURVES=DIR (created; writes DIR/<solver>_<a/s>.dat: t, Z, T, H, tau per sample),
 // CASCADE_ACCURACY_TIME_SHIFT=T0 (the release columns' shift in the surge table's T units,
@@ -133,6 +134,10 @@ SimulationSettings settingsFor(const std::string& solver, double spacing) {
   if (const char* v = std::getenv("CASCADE_ACCURACY_VISCOSITY"); v && *v) settings.fluid.viscosity = Real(std::stod(v));
   if (const char* v = std::getenv("CASCADE_ACCURACY_DENSITY_TOLERANCE"); v && *v)
     settings.solver.densityTolerance = Real(std::stod(v));
+  if (const char* v = std::getenv("CASCADE_ACCURACY_PARTICLE_SHARE"); v && *v)
+    settings.solver.particleToleranceShare = Real(std::stod(v));
+  if (const char* v = std::getenv("CASCADE_ACCURACY_PRECONDITIONER"); v && *v)
+    settings.solver.twoLevelPreconditioner = std::string(v) == "two_level";
   if (const char* v = std::getenv("CASCADE_ACCURACY_DENSITY"); v && *v)
     settings.solver.density = std::string(v) == "continuity" ? DensityEvolution::Continuity : DensityEvolution::Summation;
   if (const char* v = std::getenv("CASCADE_ACCURACY_DENSITY_DIFFUSION"); v && *v)
