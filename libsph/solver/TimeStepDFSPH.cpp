@@ -686,10 +686,13 @@ double TimeStepDFSPH::maxTimeStep(const DerivedConstants& constants) const {
 /// with S_i = 1 / sqrt(A_ii) = sqrt(alpha_i) / dt (a particle with alpha_i = 0 is inert).
 /// Starts from kappa (the warm start: applied to the velocities first), leaves the solution
 /// in kappa and the velocities it gives, and the mean predicted compression left in
-/// meanCompression.
+/// meanCompression. It stops at `tolerance` on the sum of the compressions and at
+/// `share` x particleTolerance on each particle's (share 0: by the preconditioner that
+/// runs, kTwoLevelResidualShare or kMaxResidualShare).
 template <typename Residual>
 BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity, std::vector<Real>& kappa, Real dt,
-                                                    Residual&& residual, double tolerance, double maxResidual,
+                                                    Residual&& residual, double tolerance, double particleTolerance,
+                                                    double share,
                                                     int maxProducts, double& meanCompression) {
   const std::size_t n = mOwned;  // the unknowns: this rank's particles (the halo's come from their owners)
   std::vector<double>& S = mScaling;
@@ -713,7 +716,7 @@ BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity
   struct Problem {
     TimeStepDFSPH& self;
     const std::vector<double>& S;
-    double scale, tolerance, maxResidual;
+    double scale, tolerance, maxResidual = 0;
     void product(const std::vector<double>& p, std::vector<double>& out, double& pAp) {
       const std::size_t count = p.size();
       forEachIndex(count, [&](std::size_t i) { self.mKappaStep[i] = Real(S[i] * p[i]); });
@@ -726,7 +729,7 @@ BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity
       });
     }
     double weight(std::size_t i) const { return S[i] > 0 ? 1.0 / S[i] : 0.0; }
-  } problem{*this, S, scale, tolerance, maxResidual};
+  } problem{*this, S, scale, tolerance};
   // Over MPI ranks: sums and maxima over every rank (BoundConstrainedCG.h's optional concept).
   struct SplitProblem : Problem {
     double sumTerms(std::vector<double>& terms) const { return reproducibleSum(terms, this->self.mPartition); }
@@ -757,6 +760,10 @@ BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity
                                    row.push_back({mGhostSource[g], mGhostGradient[g]});
                              });
   }
+  // The per-particle bound of the preconditioner that runs (a coarse correction that
+  // could not be built leaves Jacobi, with its own bound).
+  problem.maxResidual = (share > 0 ? share : twoLevel ? kTwoLevelResidualShare : kMaxResidualShare) * particleTolerance;
+  split.maxResidual = problem.maxResidual;
   TwoLevelProblem preconditioned{problem, &mCoarse};
   const BoundConstrainedResult result = mPartition ? solveBoundConstrained(split, x, g, maxProducts)
                                         : twoLevel ? solveBoundConstrained(preconditioned, x, g, maxProducts)
@@ -878,13 +885,9 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
       return existing + dt * densityRate(velocity, i);
     };
     const double tolerance = kDensityToleranceMargin * double(solver.densityTolerance);
-    const bool twoLevel = solver.twoLevelPreconditioner && mPartition == nullptr;
-    const double particleShare = solver.particleToleranceShare > 0 ? double(solver.particleToleranceShare)
-                                 : twoLevel                        ? kTwoLevelResidualShare
-                                                                   : kMaxResidualShare;
     const BoundConstrainedResult result =
-        solveOneSided(velocity, mDensityKappa, dt, residual, tolerance * mGlobalCount, particleShare * tolerance,
-                      maxIterations, mStatistics.densityError);
+        solveOneSided(velocity, mDensityKappa, dt, residual, tolerance * mGlobalCount, tolerance,
+                      double(solver.particleToleranceShare), maxIterations, mStatistics.densityError);
     mStatistics.densityIterations = result.products;
   }
   c.timings.forces += millisecondsSince(start);

@@ -144,7 +144,8 @@ private:
   Real divergence(const std::vector<Vec3r>& velocity, std::size_t i) const;
   template <typename Residual>
   BoundConstrainedResult solveOneSided(std::vector<Vec3r>& velocity, std::vector<Real>& kappa, Real dt,
-                                       Residual&& residual, double tolerance, double maxResidual, int maxProducts,
+                                       Residual&& residual, double tolerance, double particleTolerance, double share,
+                                       int maxProducts,
                                        double& meanCompression);
   /// sum_j (s_i + s_j) V grad W_ij over fluid and mirror neighbours (the velocity change is -dt x this).
   Vec3r velocityChange(const Real* step, std::size_t i) const;
