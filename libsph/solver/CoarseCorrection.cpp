@@ -105,15 +105,16 @@ bool CoarseCorrection::build(const Vec3r* position, const std::vector<double>& w
   tbb::parallel_for(std::size_t(0), entries.size(), [&](std::size_t e) {
     for (std::size_t chunk = 1; chunk < chunks; ++chunk) entries[e] += partial[chunk][e];
   });
-  // Neighbouring aggregates by cell: slot -> aggregate id, through a map of cells.
-  std::vector<Eigen::Triplet<double>> triplets;
-  triplets.reserve(mCount * 14);
+  // A_c from the slots, with a shift of 1e-10 of the mean diagonal (water with no free
+  // surface has the constant stiffness as a null vector); nothing to correct: no A_c.
   double trace = 0;
   for (std::size_t a = 0; a < mCount; ++a) trace += entries[a * kSlots + 13];
+  if (!(trace > 0) || !std::isfinite(trace)) return false;
   const double shift = 1e-10 * trace / double(mCount);
-  // Cells of the aggregates, for the slot lookups (sorted by id = by cell order).
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(mCount * 14);
+  // The aggregate of a cell: ids follow the cells' (z, y, x) order, so a binary search.
   auto findAggregate = [&](std::int32_t x, std::int32_t y, std::int32_t z) -> std::int64_t {
-    // ids are in lexicographic (z, y, x) cell order: binary search.
     std::size_t lo = 0, hi = mCount;
     while (lo < hi) {
       const std::size_t mid = (lo + hi) / 2;
