@@ -33,8 +33,8 @@
 ///      Jacobi-scaled conjugate gradients (BoundConstrainedCG.h; with solver.preconditioner =
 ///      two_level, plus a coarse correction on cells of 2 h: CoarseCorrection.h), from the whole stiffness of
 ///      the last step; it stops when the mean compression is below densityTolerance and every
-///      particle's below 2 % of it (the mean alone is diluted by depth:
-///      docs/dfsph-deep-water.md), at most maxIterations operator products;
+///      particle's below 20 % of it with two levels, 2 % with Jacobi alone (the mean alone is
+///      diluted by depth: docs/dfsph-deep-water.md), at most maxIterations operator products;
 ///   5. x += dt v (symplectic Euler).
 /// Each divergence-free Jacobi sweep, and each product of the density solve's operator, is
 /// two passes over the pair terms: the velocity change of a stiffness vector
