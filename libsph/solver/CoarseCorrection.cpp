@@ -19,14 +19,14 @@ int slotOf(const std::int32_t* a, const std::int32_t* b) {
 }
 } // namespace
 
-bool CoarseCorrection::aggregate(const Vec3r* position, const std::vector<double>& weight, Real cellSize) {
-  const std::size_t n = weight.size();
+bool CoarseCorrection::aggregate(const Vec3r* position, const std::vector<double>& scaling, Real cellSize) {
+  const std::size_t n = scaling.size();
   mAggregate.assign(n, -1);
   mCell.clear();
   mCount = 0;
   Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::max()), hi = -lo;
   for (std::size_t i = 0; i < n; ++i)
-    if (weight[i] > 0 && position[i].allFinite()) {
+    if (scaling[i] > 0 && position[i].allFinite()) {
       lo = lo.cwiseMin(position[i].cast<double>());
       hi = hi.cwiseMax(position[i].cast<double>());
     }
@@ -39,7 +39,7 @@ bool CoarseCorrection::aggregate(const Vec3r* position, const std::vector<double
   std::vector<std::int32_t> cellOf(n, -1);
   std::vector<std::int32_t> idOfCell(std::size_t(cells), -1);
   for (std::size_t i = 0; i < n; ++i) {
-    if (!(weight[i] > 0) || !position[i].allFinite()) continue;
+    if (!(scaling[i] > 0) || !position[i].allFinite()) continue;
     std::int64_t c[3];
     for (int a = 0; a < 3; ++a)
       c[a] = std::clamp<std::int64_t>(std::int64_t(std::floor((double(position[i][a]) - lo[a]) * inverse)), 0, dims[a] - 1);
@@ -56,15 +56,16 @@ bool CoarseCorrection::aggregate(const Vec3r* position, const std::vector<double
   }
   for (std::size_t i = 0; i < n; ++i)
     if (cellOf[i] >= 0) mAggregate[i] = idOfCell[std::size_t(cellOf[i])];
-  mWeight = weight;
+  mWeight.resize(n);
+  for (std::size_t i = 0; i < n; ++i) mWeight[i] = mAggregate[i] >= 0 ? 1.0 / scaling[i] : 0.0;
   return mCount > 0;
 }
 
-bool CoarseCorrection::build(const Vec3r* position, const std::vector<double>& weight, Real cellSize, double dt2,
+bool CoarseCorrection::build(const Vec3r* position, const std::vector<double>& scaling, Real cellSize, double dt2,
                              const RowOf& rowOf) {
   mActive = false;
-  if (!aggregate(position, weight, cellSize)) return false;
-  const std::size_t n = weight.size();
+  if (!aggregate(position, scaling, cellSize)) return false;
+  const std::size_t n = scaling.size();
   // Lower triangle of A_c, by column: entry (max(c, d), min(c, d)) in a slot of min's
   // column. Fixed chunks of particles (at most kChunks, whatever the threads), each with
   // its own entries, added in chunk order: the same bits on any number of threads.
@@ -145,7 +146,6 @@ bool CoarseCorrection::build(const Vec3r* position, const std::vector<double>& w
   coarse.setFromTriplets(triplets.begin(), triplets.end());
   mSolver.compute(coarse);
   if (mSolver.info() != Eigen::Success) return false;
-  mCoarse.resize(Eigen::Index(mCount));
   mActive = true;
   return true;
 }

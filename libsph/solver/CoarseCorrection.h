@@ -45,13 +45,13 @@ public:
     Vec3r change;
   };
 
-  /// Aggregates the n unknowns with weight[i] > 0 (weight = 1 / S_i, the scaled basis)
-  /// into cells of cellSize at their positions, and factors the coarse operator
+  /// Aggregates the n unknowns with Jacobi scaling S_i > 0 (scaling[i]; the scaled basis is
+  /// 1 / S_i) into cells of cellSize at their positions, and factors the coarse operator
   /// dt2 (G Z)^T (G Z) with the rows of G from rowOf(k, out) for k in [0, n) (out
   /// cleared by the caller's function). Returns false (and apply() does nothing) when
   /// there is nothing to coarsen or the factorisation fails.
   using RowOf = std::function<void(std::size_t k, std::vector<Coefficient>& out)>;
-  bool build(const Vec3r* position, const std::vector<double>& weight, Real cellSize, double dt2, const RowOf& rowOf);
+  bool build(const Vec3r* position, const std::vector<double>& scaling, Real cellSize, double dt2, const RowOf& rowOf);
 
   /// z = r + Z^ A_c^-1 Z^^T r on the free set (bound[i] == 0); z holds r on entry and is 0
   /// on the bound set.
@@ -61,7 +61,7 @@ public:
   std::size_t aggregates() const { return mCount; }
 
 private:
-  bool aggregate(const Vec3r* position, const std::vector<double>& weight, Real cellSize);
+  bool aggregate(const Vec3r* position, const std::vector<double>& scaling, Real cellSize);
 
   bool mActive = false;
   std::size_t mCount = 0;

@@ -745,9 +745,7 @@ BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity
   };
   bool twoLevel = false;
   if (mTwoLevel && mPartition == nullptr) {
-    mWeight.resize(n);
-    forEachIndex(n, [&](std::size_t i) { mWeight[i] = problem.weight(i); });
-    twoLevel = mCoarse.build(mPosition, mWeight, Real(2) * mSupportRadius, scale,
+    twoLevel = mCoarse.build(mPosition, S, Real(2) * mSupportRadius, scale,
                              [&](std::size_t k, std::vector<CoarseCorrection::Coefficient>& row) {
                                // the velocity change of k per unit stiffness of each source (velocityChange)
                                row.push_back({std::uint32_t(k), mGradientSum[k]});

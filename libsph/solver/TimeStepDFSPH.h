@@ -185,7 +185,6 @@ private:
   Real mSupportRadius = 0;
   bool mTwoLevel = false;       // SolverSettings::twoLevelPreconditioner
   CoarseCorrection mCoarse;     // the constant-density solve's two-level preconditioner
-  std::vector<double> mWeight;  // its scaled basis: 1 / S_i
   std::vector<std::uint32_t> mPairCount, mNeighborCount;
   std::vector<Vec3r> mGradientSum;            // G_i = sum_j V grad W_ij over fluid and mirror neighbours
   // Mirror (ghost) pairs of the boundary layer: compressed rows over layer().

@@ -48,7 +48,7 @@
 // Diagnostics (convergence studies): CASCADE_ACCURACY_SLIP=free|no|laminar,
 // CASCADE_ACCURACY_VISCOSITY (Pa s), CASCADE_ACCURACY_ARTIFICIAL_VISCOSITY (alpha),
 // CASCADE_ACCURACY_DENSITY_TOLERANCE, CASCADE_ACCURACY_PARTICLE_SHARE (the per-particle
-// share of it) and CASCADE_ACCURACY_PRECONDITIONER=two_level (DFSPH), CASCADE_ACCURACY_TANK_ONLY=1 (no dam break),
+// share of it) and CASCADE_ACCURACY_PRECONDITIONER=two_level|jacobi (DFSPH), CASCADE_ACCURACY_TANK_ONLY=1 (no dam break),
 // CASCADE_ACCURACY_DAMBREAK_ONLY=1 (no hydrostatic tank; its columns read nan),
 // CASCADE_ACCURACY_CURVES=DIR (created; writes DIR/<solver>_<a/s>.dat: t, Z, T, H, tau per sample),
 // CASCADE_ACCURACY_TIME_SHIFT=T0 (the release columns' shift in the surge table's T units,
@@ -136,8 +136,11 @@ SimulationSettings settingsFor(const std::string& solver, double spacing) {
     settings.solver.densityTolerance = Real(std::stod(v));
   if (const char* v = std::getenv("CASCADE_ACCURACY_PARTICLE_SHARE"); v && *v)
     settings.solver.particleToleranceShare = Real(std::stod(v));
-  if (const char* v = std::getenv("CASCADE_ACCURACY_PRECONDITIONER"); v && *v)
+  if (const char* v = std::getenv("CASCADE_ACCURACY_PRECONDITIONER"); v && *v) {
+    if (std::string(v) != "two_level" && std::string(v) != "jacobi")
+      throw InputError("CASCADE_ACCURACY_PRECONDITIONER: '" + std::string(v) + "' is not two_level or jacobi");
     settings.solver.twoLevelPreconditioner = std::string(v) == "two_level";
+  }
   if (const char* v = std::getenv("CASCADE_ACCURACY_DENSITY"); v && *v)
     settings.solver.density = std::string(v) == "continuity" ? DensityEvolution::Continuity : DensityEvolution::Summation;
   if (const char* v = std::getenv("CASCADE_ACCURACY_DENSITY_DIFFUSION"); v && *v)
