@@ -275,12 +275,8 @@ void Simulation::compressHydrostatically(const FluidBoxRecord& box) {
 
 void Simulation::start() {
   // Before the started check: a simulation restored from a checkpoint is started.
-  if (mSettings.solver.kernels == KernelPair::Automatic) {
-    bool floating = false;
-    for (const BoundaryPtr& b : mBoundaries)
-      if (const auto* moving = dynamic_cast<const MovingBoundary*>(b.get())) floating = floating || moving->isDynamic();
-    mSettings.solver.kernels = floating ? KernelPair::CubicSpline : KernelPair::WendlandC2;
-  }
+  if (mSettings.solver.kernels == KernelPair::Automatic)
+    mSettings.solver.kernels = hasCoupledBodies() ? KernelPair::CubicSpline : KernelPair::WendlandC2;
   if (mStarted) return;
   const SolverSettings& solver = mSettings.solver;
   // Expected speed: free fall over the height of the scene, or the fastest particle.
@@ -412,6 +408,7 @@ double Simulation::computeTimeStep() const {
   double dt = cfl * h / (double(mConstants.speedOfSound) + maxSpeed);
   const double nu = mSettings.fluid.viscosity / mSettings.fluid.restDensity;
   if (nu > 0) dt = std::min(dt, 0.125 * h * h / nu);
+  dt = std::min(dt, needs.dampingStep);
   const double forceFactor = needs.forceStepFactor;
   // Gravity acts on every particle: a bound on the first step too (before any step's
   // acceleration is known; a 5 ms first step launched a resting 72-layer DFSPH column).
@@ -503,7 +500,7 @@ double Simulation::step() {
   for (std::size_t k = 0; k < layer.size(); ++k) mLayerStart[k] = mParticles.position[layer[k]];
   StepContext context{mParticles, mNeighbors, mBoundaryParticles, mSettings, mConstants,
                       mAcceleration, mObstacleForce, mReportedForce, mObstacleMoment, mTimings, mTime, 0,
-                      mPartition, owned};
+                      mPartition, owned, hasCoupledBodies()};
   mTimeStep->advance(context, static_cast<Real>(dt));
   // The forces on the solids are every rank's already (ReactionSums.h), the same bits on any rank count.
   if (mPartition) context.maxAcceleration = Real(mPartition->maxOverRanks(double(context.maxAcceleration)));
@@ -692,6 +689,12 @@ Vec3d Simulation::obstacleTorque(std::size_t index, const Vec3d& center) const {
 bool Simulation::hasMovingSolids() const {
   for (const BoundaryPtr& b : mBoundaries)
     if (b->moves()) return true;
+  return false;
+}
+
+bool Simulation::hasCoupledBodies() const {
+  for (const BoundaryPtr& b : mBoundaries)
+    if (const auto* moving = dynamic_cast<const MovingBoundary*>(b.get()); moving && moving->isDynamic()) return true;
   return false;
 }
 

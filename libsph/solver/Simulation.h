@@ -128,6 +128,8 @@ public:
   // --- moving solids (libsph/bodies/MovingBoundary.h) ---
   /// True if any boundary moves.
   bool hasMovingSolids() const;
+  /// True if any boundary is a rigid body the water moves (two-way coupled).
+  bool hasCoupledBodies() const;
   /// The moving solid at `index`, or null if that boundary stands still.
   const MovingBoundary* movingSolid(std::size_t index) const;
 

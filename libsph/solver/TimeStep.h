@@ -69,6 +69,8 @@ struct StepContext {
   /// after them are neighbours only (DomainPartition.h). Null: one process owns all.
   DomainPartition* partition = nullptr;
   std::size_t owned = std::numeric_limits<std::size_t>::max();
+  /// Rigid bodies the water moves (two-way coupled) are in the scene.
+  bool coupledBodies = false;
   /// The particles whose forces and motion this step computes: [0, ownedCount()).
   std::size_t ownedCount() const { return std::min(owned, particles.size()); }
 };
@@ -89,6 +91,9 @@ struct TimeStepNeeds {
   Real sampleRadius = 0;
   /// Force limit of the time step: dt <= forceStepFactor sqrt(h / a_max).
   Real forceStepFactor = Real(0.25);
+  /// Damping limit of the time step, s: dt <= dampingStep (the method's explicit
+  /// viscous terms; infinity: none beyond the viscous limit on the scene's viscosity).
+  double dampingStep = std::numeric_limits<double>::infinity();
   /// Largest CFL factor the method holds; a larger SolverSettings::cflFactor is
   /// used as this (0: no cap).
   Real maxCflFactor = Real(0);

@@ -51,6 +51,21 @@ constexpr double kMaxResidualShare = 0.02, kTwoLevelResidualShare = 0.2;
 // dt <= kStiffnessStepFactor h / sqrt(kappa_max): a CFL condition on the speed of a
 // pressure signal, sqrt(kappa) (the wall layer's explicit spring; ibid.).
 constexpr double kStiffnessStepFactor = 0.2;
+// The viscous terms (prepare()) damp the pairs' relative velocities, integrated
+// explicitly. On the rest lattice (cubic spline, h = 2 spacings) their fastest mode,
+// neighbours moving apart and together along one axis, decays at the rate
+// lambda = kDampingRate F / h^2 for a term on every pair (F = 10 nu) and at half of it
+// for one on approaching pairs only (F = alpha h c_ref: half the pairs of that mode).
+// dt <= 2 / lambda: no step amplifies it (a larger step reverses it, and grows it).
+constexpr double kDampingRate = 5.70;
+
+// Monaghan (1992) artificial viscosity Pi_ij = -alpha h c_ref (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2)
+// for approaching pairs: the factor alpha h c_ref, with c_ref = 10 x the scene's expected
+// speed, the speed of sound of the default WCSPH (DFSPH has none), so both solvers get the
+// same numerical viscosity.
+Real artificialViscosityFactor(const SolverSettings& solver, const DerivedConstants& constants) {
+  return solver.artificialViscosity * constants.supportRadius * Real(10) * constants.expectedSpeed;
+}
 // The solve stops at this share of densityTolerance: the next step's compression exceeds
 // the solve's linear prediction by up to 4 % (ibid.).
 constexpr double kDensityToleranceMargin = 0.9;
@@ -247,7 +262,7 @@ bool haveAvx2() { return false; }
 
 } // namespace
 
-TimeStepNeeds TimeStepDFSPH::needs(const SimulationSettings&, const DerivedConstants&) const {
+TimeStepNeeds TimeStepDFSPH::needs(const SimulationSettings& settings, const DerivedConstants& constants) const {
   TimeStepNeeds needs;
   needs.speedOfSoundInCfl = false;  // incompressible: CFL on the velocity only
   needs.mirrorParticles = true;     // the boundary model: type II mirror particles (SEED section 2.2)
@@ -255,8 +270,17 @@ TimeStepNeeds TimeStepDFSPH::needs(const SimulationSettings&, const DerivedConst
   // 0.12 saves 19 % of the CPU time of the 59 k dam break's first 0.4 s, but the 4-layer
   // hydrostatic slab then holds only 0.1 % average compression (0.047 % at 0.06) and moves
   // at 0.03 m/s RMS.
+  // Only gravity counts as a (given) force there (without coupled bodies: advance()); the
+  // viscous terms are damping, whose step limit is their rate, not their size (a 59.5 k dam
+  // break's artificial viscosity reached 70 g at the impact and cut the step to 0.7 ms;
+  // docs/dfsph-deep-water.md, "The time step").
   needs.forceStepFactor = Real(0.06);
   needs.maxCflFactor = kDfsphMaxCfl;
+  const double h = constants.supportRadius;
+  const double physical = 10.0 * double(settings.fluid.viscosity) / double(settings.fluid.restDensity);
+  const double artificial = double(artificialViscosityFactor(settings.solver, constants));
+  const double rate = kDampingRate * (physical + 0.5 * artificial) / (h * h);  // lambda
+  if (rate > 0) needs.dampingStep = 2.0 / rate;
   return needs;
 }
 
@@ -428,10 +452,7 @@ void TimeStepDFSPH::prepare(StepContext& c) {
   const Vec3r gravity = solver.gravity;
   const Real nu = c.settings.fluid.viscosity / c.settings.fluid.restDensity;
   const Real epsilon2 = Real(0.01) * h2;
-  // Monaghan (1992) artificial viscosity Pi_ij = -alpha h c_ref (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2)
-  // for approaching pairs, with c_ref = 10 x the scene's expected speed, the speed of sound of
-  // the default WCSPH (DFSPH has none), so both solvers get the same numerical viscosity.
-  const Real artificial = solver.artificialViscosity * h * Real(10) * c.constants.expectedSpeed;
+  const Real artificial = artificialViscosityFactor(solver, c.constants);
   // Viscous factor per pair: standard SPH viscosity (Morris 1997 form, as in SPlisHSPlasH)
   // 2 (d + 2) nu = 10 nu, plus the artificial term for approaching pairs.
   auto viscousFactor = [&](Real vx) { return Real(10) * nu + (vx < 0 ? artificial : Real(0)); };
@@ -858,7 +879,13 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   // --- 3. non-pressure accelerations (gravity, viscosity; computed in prepare()) ---
   start = Clock::now();
   {
-    std::vector<Vec3r>& acceleration = c.acceleration;
+    const std::vector<Vec3r>& acceleration = c.acceleration;
+    // The force limit's acceleration: gravity; the viscous part is bounded by its rate
+    // (needs().dampingStep). With rigid bodies the water moves, every non-pressure
+    // acceleration, as before: their contacts and the fluid force they feel hold at those
+    // shorter steps (at 3 ms instead of 1.8 two resting crates sank 1.4 mm into each other,
+    // and the near-neutral cube of 800 tilted 2.9 degrees, bound 2; docs/dfsph-deep-water.md,
+    // "The time step").
     const double maxA = tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, mOwned, 4096), 0.0,
         [&](const auto& range, double m) {
@@ -869,7 +896,7 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
           return m;
         },
         [](double a, double b) { return std::max(a, b); });
-    c.maxAcceleration = static_cast<Real>(std::sqrt(maxA));
+    c.maxAcceleration = c.coupledBodies ? static_cast<Real>(std::sqrt(maxA)) : solver.gravity.norm();
   }
   if (c.settings.boundary.slip == MirrorSlip::LaminarWallShear) applyWallShear(c, dt);
   c.timings.integrate += millisecondsSince(start);

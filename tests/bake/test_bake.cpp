@@ -391,6 +391,25 @@ TEST(Cli, AMistypedSubcommandIsNamedWithTheNearest) {
   EXPECT_EQ(readLog(log), "cascade: unknown subcommand 'surfce' (did you mean 'surface'?) (see cascade --help)\n");
 }
 
+// The bench's study knobs are inputs too: an unknown choice is refused with one line and
+// exit 2, never read as some default (CASCADE_ACCURACY_DENSITY read any value but
+// "continuity" as summation), and before any case runs.
+TEST(Cli, BenchAccuracyRefusesAnUnknownChoiceInItsEnvironment) {
+  const fs::path log = freshDir("bench_choice").string() + ".log";
+  const std::vector<std::pair<const char*, const char*>> cases = {
+      {"CASCADE_ACCURACY_DENSITY", "sumation"}, {"CASCADE_ACCURACY_SLIP", "free-slip"},
+      {"CASCADE_ACCURACY_CLAMP", "yes"}, {"CASCADE_ACCURACY_PRECONDITIONER", "multigrid"}};
+  for (const auto& [name, value] : cases) {
+    ::setenv(name, value, 1);
+    const int code = run({"bench", "accuracy"}, log);
+    ::unsetenv(name);
+    EXPECT_EQ(code, 2) << name;
+    const std::string text = readLog(log);
+    EXPECT_EQ(text.rfind(std::string(name) + ": '" + value + "' is not one of ", 0), 0u) << text;
+    EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 1) << text;
+  }
+}
+
 TEST_F(Bake, UnstableBakeExits3NamingTheParticle) {
   const fs::path out = freshDir("unstable");
   std::vector<std::string> args = bakeArgs(out);

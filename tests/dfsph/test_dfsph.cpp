@@ -168,6 +168,40 @@ TEST(DFSPH, CflFactorAboveTheCapGivesTheCappedStep) {
   EXPECT_NEAR(firstStep("wcsph", Real(2)) / firstStep("wcsph", Real(0.3)), double(kWcsphMaxCfl) / 0.3, 1e-6);
 }
 
+// The viscous terms are damping, integrated explicitly: the step follows their rate
+// (TimeStepDFSPH.cpp, kDampingRate), not their size. A syrup-like fluid (nu = 0.05 m^2/s,
+// 50,000 x water) with a random velocity field and no gravity only loses kinetic energy;
+// without the damping limit the step is 0.125 h^2 / nu (1 ms here), 3.6 x the damping
+// limit, and the fastest mode grows 6-fold a step.
+TEST(DFSPH, ViscousFluidOnlyLosesEnergyAtTheDampingStep) {
+  SimulationSettings s = dfsphSettings(Real(0.01));
+  s.solver.gravity = Vec3r::Zero();
+  s.fluid.viscosity = Real(50);  // Pa s: nu = 0.05 m^2/s
+  Simulation sim(s);
+  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(0.1, 0.1, 0.1)));
+  sim.addFluidBox(Vec3r(0, 0, 0), Vec3r(0.1, 0.1, 0.1));
+  std::mt19937 random(7);
+  std::uniform_real_distribution<float> speed(-0.1f, 0.1f);
+  for (Vec3r& v : sim.particles().velocity) v = Vec3r(speed(random), speed(random), speed(random));
+  auto kinetic = [&] {
+    double sum = 0;
+    for (const Vec3r& v : sim.particles().velocity) sum += 0.5 * double(v.squaredNorm());
+    return sum;
+  };
+  const double initial = kinetic();
+  double last = initial;
+  int steps = 0;
+  while (sim.time() < 0.02) {
+    sim.step();
+    ++steps;
+    const double now = kinetic();
+    ASSERT_LE(now, last * (1 + 1e-6)) << "step " << steps << " at t = " << sim.time() << " s, dt = " << sim.lastTimeStep();
+    last = now;
+  }
+  EXPECT_LT(last, 0.1 * initial);  // the noise is viscous: gone within 20 ms
+  EXPECT_GT(steps, 20);
+}
+
 // Frames and probes land on steps the Simulation shortens (advanceTo). Such a step
 // starts from half the last stiffness and, being short, needs little more: its own
 // stiffness read 0.58-0.92 rho g H on a resting floor. It reports the last regular

@@ -27,7 +27,7 @@
 //    the samples within the band over t/T in [2.3, 7]; noise, the RMS of (raw - its 5 ms
 //    centred moving average) over t/T in [3, 7], in rho g H. Spacings from
 //    CASCADE_ACCURACY_LOBOVSKY (m; "none" skips the case). By default those that bake
-//    in under 10 minutes here: 1 cm and 5 mm for WCSPH, 1 cm for DFSPH (5 mm: about 17 min).
+//    in under 10 minutes here: 1 cm and 5 mm (DFSPH at 5 mm: 8.6 min, WCSPH about 9).
 // Errors are fractions (0.03 = 3 %). front_rms and height_rms compare with the
 // experiment's own time origin (raw). front_rms_release and height_rms_release
 // compare with its time origin moved by kReleaseShift (T = 0.175, the correction
@@ -78,6 +78,7 @@
 #include <filesystem>
 #include <unistd.h>
 #include <fstream>
+#include <initializer_list>
 #include <iostream>
 #include <map>
 #include <sstream>
@@ -118,6 +119,19 @@ double secondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
+/// The value of environment variable `name` if it is one of `options`; "" if unset or
+/// empty; anything else is an InputError (exit 2), never read as some default.
+std::string environmentChoice(const char* name, std::initializer_list<const char*> options) {
+  const char* v = std::getenv(name);
+  if (v == nullptr || *v == 0) return "";
+  std::string list;
+  for (const char* option : options) {
+    if (std::string(v) == option) return v;
+    list += (list.empty() ? "" : ", ") + std::string(option);
+  }
+  throw InputError(std::string(name) + ": '" + v + "' is not one of " + list);
+}
+
 SimulationSettings settingsFor(const std::string& solver, double spacing) {
   SimulationSettings settings;
   settings.fluid.spacing = Real(spacing);
@@ -136,21 +150,16 @@ SimulationSettings settingsFor(const std::string& solver, double spacing) {
     settings.solver.densityTolerance = Real(std::stod(v));
   if (const char* v = std::getenv("CASCADE_ACCURACY_PARTICLE_SHARE"); v && *v)
     settings.solver.particleToleranceShare = Real(std::stod(v));
-  if (const char* v = std::getenv("CASCADE_ACCURACY_PRECONDITIONER"); v && *v) {
-    if (std::string(v) != "two_level" && std::string(v) != "jacobi")
-      throw InputError("CASCADE_ACCURACY_PRECONDITIONER: '" + std::string(v) + "' is not two_level or jacobi");
-    settings.solver.twoLevelPreconditioner = std::string(v) == "two_level";
-  }
-  if (const char* v = std::getenv("CASCADE_ACCURACY_DENSITY"); v && *v)
-    settings.solver.density = std::string(v) == "continuity" ? DensityEvolution::Continuity : DensityEvolution::Summation;
+  if (const std::string v = environmentChoice("CASCADE_ACCURACY_PRECONDITIONER", {"two_level", "jacobi"}); !v.empty())
+    settings.solver.twoLevelPreconditioner = v == "two_level";
+  if (const std::string v = environmentChoice("CASCADE_ACCURACY_DENSITY", {"summation", "continuity"}); !v.empty())
+    settings.solver.density = v == "continuity" ? DensityEvolution::Continuity : DensityEvolution::Summation;
   if (const char* v = std::getenv("CASCADE_ACCURACY_DENSITY_DIFFUSION"); v && *v)
     settings.solver.densityDiffusion = Real(std::stod(v));
-  if (const char* v = std::getenv("CASCADE_ACCURACY_CLAMP"); v && *v)
-    settings.solver.clampNegativePressure = std::string(v) != "0";
-  if (const char* v = std::getenv("CASCADE_ACCURACY_SLIP"); v && *v) {
-    const std::string slip = v;
-    settings.boundary.slip = slip == "no" ? MirrorSlip::NoSlip : slip == "free" ? MirrorSlip::FreeSlip : MirrorSlip::LaminarWallShear;
-  }
+  if (const std::string v = environmentChoice("CASCADE_ACCURACY_CLAMP", {"0", "1"}); !v.empty())
+    settings.solver.clampNegativePressure = v == "1";
+  if (const std::string v = environmentChoice("CASCADE_ACCURACY_SLIP", {"no", "free", "laminar"}); !v.empty())
+    settings.boundary.slip = v == "no" ? MirrorSlip::NoSlip : v == "free" ? MirrorSlip::FreeSlip : MirrorSlip::LaminarWallShear;
   return settings;
 }
 
@@ -289,8 +298,9 @@ void runLobovsky(ImpactRow& row, const PercentileBand& band) {
   char spacing[32];
   std::snprintf(spacing, sizeof spacing, "%.9g", row.spacing);
   std::vector<std::string> sets = {"solver.type=" + row.solver, std::string("fluid.spacing=") + spacing};
-  if (const char* v = std::getenv("CASCADE_ACCURACY_DENSITY"); v && *v && row.solver == "wcsph")
-    sets.push_back(std::string("solver.density=") + v);
+  if (const std::string v = environmentChoice("CASCADE_ACCURACY_DENSITY", {"summation", "continuity"});
+      !v.empty() && row.solver == "wcsph")
+    sets.push_back("solver.density=" + v);
   for (const std::string& set : listFromEnvironment("CASCADE_ACCURACY_LOBOVSKY_SET", {}, ';')) sets.push_back(set);
   const scene::Scene scene = scene::loadScene(std::string(CASCADE_SOURCE_DIR) + "/scenes/lobovsky.json", sets);
   Simulation sim(scene::simulationSettings(scene));
@@ -473,14 +483,12 @@ BenchTable benchAccuracy() {
   }
   // Lobovsky et al. (2014): the shipped scene at each spacing.
   std::vector<ImpactRow> impacts;
-  const bool lobovskySet = std::getenv("CASCADE_ACCURACY_LOBOVSKY") && *std::getenv("CASCADE_ACCURACY_LOBOVSKY");
   const std::vector<std::string> lobovskySpacings = listFromEnvironment("CASCADE_ACCURACY_LOBOVSKY", {"0.01", "0.005"});
   PercentileBand band;
   if (!(lobovskySpacings.size() == 1 && lobovskySpacings[0] == "none")) {
     band = readPercentileBand(std::string(CASCADE_SOURCE_DIR) + kLobovskyBand);
     for (const std::string& solver : solvers)
       for (const std::string& text : lobovskySpacings) {
-        if (!lobovskySet && solver == "dfsph" && text == "0.005") continue;  // about 17 minutes here
         ImpactRow row;
         row.solver = solver;
         char* end = nullptr;
