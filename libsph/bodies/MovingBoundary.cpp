@@ -99,14 +99,19 @@ namespace {
 /// A point that moved from `from` to `to` this step, tested a clearance further (a
 /// speculative contact: a point resting a clearance off a surface touches it, so a
 /// body at rest on it stays at rest): the contact it makes with `solid`, if any; its
-/// normal out of the solid, its depth how far the point must go along it.
+/// normal out of the solid, its depth how far the point must go along it. A point
+/// that was inside already (a contact an earlier step left unresolved: the position
+/// passes share it between bodies that the water and other contacts move again) goes
+/// out through the nearest surface; penetrated() sees only entries, and such a point
+/// would otherwise stay inside for good and the bodies sink into each other.
 bool contactOf(const Boundary& solid, const Vec3d& from, const Vec3d& to, Real clearance, RigidContact& contact) {
   const Vec3r start = from.cast<Real>(), end = to.cast<Real>();
   const Vec3r move = end - start;
   const Real length = move.norm();
   const Vec3r reach = length > 0 ? Vec3r(end + (clearance / length) * move) : end;
   Vec3r exit, normal;
-  if (!solid.penetrated(start, reach, clearance, exit, normal)) return false;
+  if (!solid.penetrated(start, reach, clearance, exit, normal) && !solid.escape(end, clearance, exit, normal))
+    return false;
   contact = RigidContact{to, normal.cast<double>().normalized(), double((exit - end).dot(normal))};
   return true;
 }
@@ -195,6 +200,14 @@ bool MovingBoundary::penetrated(const Vec3r& from, const Vec3r& to, Real clearan
     return false;
   exit = toWorld(mPose, exitReference);
   normal = (mPose.rotation.cast<Real>() * normalReference);
+  return true;
+}
+
+bool MovingBoundary::escape(const Vec3r& x, Real clearance, Vec3r& exit, Vec3r& normal) const {
+  Vec3r exitReference, normalReference;
+  if (!mReference->escape(toReference(mPose, x), clearance, exitReference, normalReference)) return false;
+  exit = toWorld(mPose, exitReference);
+  normal = mPose.rotation.cast<Real>() * normalReference;
   return true;
 }
 

@@ -37,6 +37,8 @@ public:
                   std::vector<MirrorMap>& maps) const override;
   bool isInside(const Vec3r& x) const override;
   bool penetrated(const Vec3r& from, const Vec3r& to, Real clearance, Vec3r& exit, Vec3r& normal) const override;
+  /// The reference solid's escape, in the pose now.
+  bool escape(const Vec3r& x, Real clearance, Vec3r& exit, Vec3r& normal) const override;
   TriangleMesh surfaceMesh() const override;
   void bounds(Vec3r& lo, Vec3r& hi) const override;
 

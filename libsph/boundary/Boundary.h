@@ -124,6 +124,15 @@ public:
     return true;
   }
 
+  /// A rigid body's contacts: a point already inside the solid (left there by an
+  /// earlier step, so penetrated() sees no entry): true with `exit` about `clearance`
+  /// outside the nearest surface and `normal` the outward direction there. Default:
+  /// none (solids whose insides no body point reaches by a path penetrated() misses).
+  virtual bool escape(const Vec3r& x, Real clearance, Vec3r& exit, Vec3r& normal) const {
+    (void)x, (void)clearance, (void)exit, (void)normal;
+    return false;
+  }
+
   // --- motion (a solid at rest answers with the defaults) ---
   /// True if the solid moves (MovingBoundary, DeformingMeshBoundary): its type I samples
   /// are kept in its reference frame and placed by pose() each step, or made per frame

@@ -486,6 +486,17 @@ bool MeshBoundary::penetrated(const Vec3r& from, const Vec3r& to, Real clearance
   return true;
 }
 
+bool MeshBoundary::escape(const Vec3r& x, Real clearance, Vec3r& exit, Vec3r& normal) const {
+  if (!isInside(x)) return false;
+  const Impl& m = *mImpl;
+  Vec3d point;
+  const long t = m.closest(x.cast<double>(), (m.hi - m.lo).norm(), point);
+  if (t < 0) return false;
+  normal = m.faceNormal[t].cast<Real>();
+  exit = point.cast<Real>() + clearance * normal;
+  return true;
+}
+
 bool MeshBoundary::closestPoint(const Vec3r& x, Real maxDistance, Vec3r& point, Vec3r& normal) const {
   Vec3d q;
   const long t = mImpl->closest(x.cast<double>(), double(maxDistance), q);

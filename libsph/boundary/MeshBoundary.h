@@ -102,6 +102,8 @@ public:
   /// found by the winding number, taken only for a `to` within |to - from| of the
   /// surface; exit `clearance` off the closest surface point.
   bool penetrated(const Vec3r& from, const Vec3r& to, Real clearance, Vec3r& exit, Vec3r& normal) const override;
+  /// Out through the nearest triangle.
+  bool escape(const Vec3r& x, Real clearance, Vec3r& exit, Vec3r& normal) const override;
   TriangleMesh surfaceMesh() const override;
   void bounds(Vec3r& lo, Vec3r& hi) const override;
 

@@ -155,7 +155,7 @@ Real imageCouplings(std::vector<ImageSums>& images, const Vec3r& xi, const std::
 }
 
 #ifdef CASCADE_DFSPH_AVX2
-#define CASCADE_DFSPH_TARGET __attribute__((target("avx2,fma")))
+#define CASCADE_DFSPH_TARGET __attribute__((target("avx2,fma,f16c")))
 
 /// The eight lanes of v added pairwise (once per particle: no shuffles needed).
 CASCADE_DFSPH_TARGET inline float horizontalSum(__m256 v) {
@@ -166,7 +166,8 @@ CASCADE_DFSPH_TARGET inline float horizontalSum(__m256 v) {
 
 /// prepare()'s pair loop for eight neighbours at a time (the same terms as the scalar
 /// loop; a neighbour on the support's edge or on top of i is stored with a zero
-/// gradient instead of dropped, so rows stay in order and need no compaction).
+/// gradient instead of dropped, so rows stay in order and need no compaction). The
+/// gradients are rounded to halves first (F16C, round to nearest even: halfFromFloat).
 CASCADE_DFSPH_TARGET void fluidPairsAvx2(const Vec3r& xi, const Vec3r& vi, const Vec3r* position,
                                          const Vec3r* velocity, const std::uint32_t* neighbors, std::uint32_t count,
                                          const PairConstants& k, void* pairsOut, PairSums& sums) {
@@ -180,7 +181,7 @@ CASCADE_DFSPH_TARGET void fluidPairsAvx2(const Vec3r& xi, const Vec3r& vi, const
   __m256 density = zero, squares = zero, rate = zero, gx = zero, gy = zero, gz = zero, ax = zero, ay = zero, az = zero;
   const float* pos = position[0].data();
   const float* vel = velocity[0].data();
-  float* out = static_cast<float*>(pairsOut);
+  unsigned char* out = static_cast<unsigned char*>(pairsOut);
   std::uint32_t inside = 0;
   for (std::uint32_t base = 0; base < count; base += 8) {
     const std::uint32_t lanes = std::min<std::uint32_t>(8, count - base);
@@ -212,25 +213,27 @@ CASCADE_DFSPH_TARGET void fluidPairsAvx2(const Vec3r& xi, const Vec3r& vi, const
     const __m256 inverse = _mm256_div_ps(one, _mm256_mul_ps(length, shifted));
     density = _mm256_add_ps(density, _mm256_and_ps(valid, _mm256_mul_ps(volume, value)));
     const __m256 scale = _mm256_and_ps(valid, _mm256_mul_ps(_mm256_mul_ps(volume, slope), _mm256_mul_ps(shifted, inverse)));
-    const __m256 ggx = _mm256_mul_ps(scale, rx), ggy = _mm256_mul_ps(scale, ry), ggz = _mm256_mul_ps(scale, rz);
-    // Pair terms {j, g}: a 4 x 8 transpose into eight 16-byte records.
+    // V grad W_ij, rounded to halves: the values stored and used everywhere below.
+    const __m128i hx = _mm256_cvtps_ph(_mm256_mul_ps(scale, rx), 0), hy = _mm256_cvtps_ph(_mm256_mul_ps(scale, ry), 0),
+                  hz = _mm256_cvtps_ph(_mm256_mul_ps(scale, rz), 0);
+    const __m256 ggx = _mm256_cvtph_ps(hx), ggy = _mm256_cvtph_ps(hy), ggz = _mm256_cvtph_ps(hz);
+    // Pair terms {j, 3 halves}: ten-byte records.
     {
-      const __m256 a = _mm256_castsi256_ps(j);
-      const __m256 t0 = _mm256_unpacklo_ps(a, ggx), t1 = _mm256_unpackhi_ps(a, ggx);
-      const __m256 t2 = _mm256_unpacklo_ps(ggy, ggz), t3 = _mm256_unpackhi_ps(ggy, ggz);
-      const __m256 u0 = _mm256_shuffle_ps(t0, t2, 0x44), u1 = _mm256_shuffle_ps(t0, t2, 0xEE);
-      const __m256 u2 = _mm256_shuffle_ps(t1, t3, 0x44), u3 = _mm256_shuffle_ps(t1, t3, 0xEE);
-      alignas(32) float records[32];
-      _mm256_store_ps(records + 0, _mm256_permute2f128_ps(u0, u1, 0x20));
-      _mm256_store_ps(records + 8, _mm256_permute2f128_ps(u2, u3, 0x20));
-      _mm256_store_ps(records + 16, _mm256_permute2f128_ps(u0, u1, 0x31));
-      _mm256_store_ps(records + 24, _mm256_permute2f128_ps(u2, u3, 0x31));
-      std::memcpy(out + 4 * base, records, std::size_t(lanes) * 4 * sizeof(float));
+      alignas(16) std::uint16_t halves[3][8];
+      _mm_store_si128(reinterpret_cast<__m128i*>(halves[0]), hx);
+      _mm_store_si128(reinterpret_cast<__m128i*>(halves[1]), hy);
+      _mm_store_si128(reinterpret_cast<__m128i*>(halves[2]), hz);
+      for (std::uint32_t l = 0; l < lanes; ++l) {
+        unsigned char* record = out + 10 * std::size_t(base + l);
+        std::memcpy(record, &index[l], 4);
+        const std::uint16_t g[3] = {halves[0][l], halves[1][l], halves[2][l]};
+        std::memcpy(record + 4, g, 6);
+      }
     }
     gx = _mm256_add_ps(gx, ggx);
     gy = _mm256_add_ps(gy, ggy);
     gz = _mm256_add_ps(gz, ggz);
-    squares = _mm256_fmadd_ps(_mm256_mul_ps(scale, scale), safe2, squares);
+    squares = _mm256_fmadd_ps(ggx, ggx, _mm256_fmadd_ps(ggy, ggy, _mm256_fmadd_ps(ggz, ggz, squares)));
     const __m256 vxj = _mm256_i32gather_ps(vel, j3, 4);
     const __m256 vyj = _mm256_i32gather_ps(vel + 1, j3, 4);
     const __m256 vzj = _mm256_i32gather_ps(vel + 2, j3, 4);
@@ -253,8 +256,48 @@ CASCADE_DFSPH_TARGET void fluidPairsAvx2(const Vec3r& xi, const Vec3r& vi, const
 }
 
 bool haveAvx2() {
-  static const bool supported = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  static const bool supported =
+      __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && __builtin_cpu_supports("f16c");
   return supported;
+}
+
+/// The operator products' pair loops with F16C: sum over a row's records of
+/// lane(j) * g (four lanes: the record's three halves are read with the next record's
+/// first two bytes, the rows being padded by one record, and the fourth lane is dropped).
+template <typename Lane>
+CASCADE_DFSPH_TARGET __m128 rowSumF16c(const void* pairs, std::uint32_t count, const Lane& lane) {
+  const unsigned char* record = static_cast<const unsigned char*>(pairs);
+  __m128 sum = _mm_setzero_ps();
+  for (std::uint32_t k = 0; k < count; ++k, record += 10) {
+    std::uint32_t j;
+    std::memcpy(&j, record, 4);
+    const __m128 g = _mm_cvtph_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(record + 4)));
+    sum = _mm_fmadd_ps(lane(j), g, sum);
+  }
+  return sum;
+}
+/// velocityChange(): s_j in every lane.
+struct StiffnessLane {
+  const Real* step;
+  CASCADE_DFSPH_TARGET __m128 operator()(std::uint32_t j) const { return _mm_set1_ps(step[j]); }
+};
+/// divergence(): v_j (x, y as 8 bytes, then z; the fourth lane 0).
+struct VelocityLane {
+  const Vec3r* velocity;
+  CASCADE_DFSPH_TARGET __m128 operator()(std::uint32_t j) const {
+    const float* v = velocity[j].data();
+    return _mm_movelh_ps(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(v))), _mm_load_ss(v + 2));
+  }
+};
+CASCADE_DFSPH_TARGET Vec3r rowChangeF16c(const void* pairs, std::uint32_t count, const Real* step) {
+  alignas(16) float lane[4];
+  _mm_store_ps(lane, rowSumF16c(pairs, count, StiffnessLane{step}));
+  return Vec3r(lane[0], lane[1], lane[2]);
+}
+CASCADE_DFSPH_TARGET Real rowDivergenceF16c(const void* pairs, std::uint32_t count, const Vec3r* velocity) {
+  alignas(16) float lane[4];
+  _mm_store_ps(lane, rowSumF16c(pairs, count, VelocityLane{velocity}));
+  return (lane[0] + lane[1]) + lane[2];
 }
 #else
 bool haveAvx2() { return false; }
@@ -436,7 +479,7 @@ void TimeStepDFSPH::prepare(StepContext& c) {
 
   // Pair terms: the neighbours strictly inside the support (grad W != 0), packed at the
   // start of each neighbour-list row; the rest of the row is unused.
-  mPairs.resize(nl.totalCount());
+  mPairs.resize(nl.totalCount() + 1);  // + 1: the F16C loops read two bytes past a row's last record
   mPairCount.resize(n);
   mGradientSum.resize(n);
   mFactor.resize(n);
@@ -457,10 +500,11 @@ void TimeStepDFSPH::prepare(StepContext& c) {
   // 2 (d + 2) nu = 10 nu, plus the artificial term for approaching pairs.
   auto viscousFactor = [&](Real vx) { return Real(10) * nu + (vx < 0 ? artificial : Real(0)); };
   std::vector<Vec3r>& acceleration = c.acceleration;
-  static_assert(sizeof(PairTerm) == 4 * sizeof(float), "pair terms are 16-byte records");
+  static_assert(sizeof(PairTerm) == 10, "pair terms are 10-byte records");
   mPosition = particles.position.data();
   mSupportRadius = h;
   const bool avx2 = haveAvx2() && std::getenv("CASCADE_NO_AVX2") == nullptr;
+  mHalfInstructions = avx2;
   const PairConstants pairConstants{h2, kernel.inverseSupport, kernel.valueCoeff, kernel.gradientCoeff, volume, epsilon2,
                                     nu, artificial};
   // The owned particles (a halo copy takes its values from its owner).
@@ -502,11 +546,13 @@ void TimeStepDFSPH::prepare(StepContext& c) {
       const Real inverse = Real(1) / (length * shifted);
       density += volume * value;
       const Real scale = volume * slope * shifted * inverse;  // V grad W_ij = scale (x_i - x_j)
-      const Vec3r g = scale * r;
-      pair[stored++] = PairTerm{j, g.x(), g.y(), g.z()};
+      PairTerm& term = pair[stored++];
+      term.neighbor = j;
+      for (int a = 0; a < 3; ++a) term.gradient[a] = halfFromFloat(scale * r[a]);
+      const Vec3r g = term.value();  // the rounded gradient, as the AVX2 loop and the solves take it
       ++count;
       gradientSum += g;
-      gradientSquares += scale * scale * r2;
+      gradientSquares += g.squaredNorm();
       const Vec3r& vj = velocity[j];
       rate += vj.dot(g);
       // a_i += sum_j F (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2) V grad W_ij (rest volume V: the
@@ -645,14 +691,12 @@ double TimeStepDFSPH::sumOf(std::size_t n, F&& f) {
 Vec3r TimeStepDFSPH::velocityChange(const Real* step, std::size_t i) const {
   const PairTerm* pair = mPairs.data() + mPairOffsets[i];
   const std::uint32_t count = mPairCount[i];
-  Real x = 0, y = 0, z = 0;
-  for (std::uint32_t k = 0; k < count; ++k) {
-    const Real sj = step[pair[k].neighbor];
-    x += sj * pair[k].gx;
-    y += sj * pair[k].gy;
-    z += sj * pair[k].gz;
-  }
-  Vec3r dv(x, y, z);
+  Vec3r dv = Vec3r::Zero();
+#ifdef CASCADE_DFSPH_AVX2
+  if (mHalfInstructions) dv = rowChangeF16c(pair, count, step);
+  else
+#endif
+    for (std::uint32_t k = 0; k < count; ++k) dv += step[pair[k].neighbor] * pair[k].value();
   const std::uint32_t l = mLayerIndex[i];
   if (l != kNotInLayer)
     for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g) dv += step[mGhostSource[g]] * mGhostGradient[g];
@@ -681,10 +725,11 @@ Real TimeStepDFSPH::divergence(const std::vector<Vec3r>& velocity, std::size_t i
   const PairTerm* pair = mPairs.data() + mPairOffsets[i];
   const std::uint32_t count = mPairCount[i];
   Real rate = 0;
-  for (std::uint32_t k = 0; k < count; ++k) {
-    const Vec3r& vj = velocity[pair[k].neighbor];
-    rate += vj.x() * pair[k].gx + vj.y() * pair[k].gy + vj.z() * pair[k].gz;
-  }
+#ifdef CASCADE_DFSPH_AVX2
+  if (mHalfInstructions) rate = rowDivergenceF16c(pair, count, velocity.data());
+  else
+#endif
+    for (std::uint32_t k = 0; k < count; ++k) rate += velocity[pair[k].neighbor].dot(pair[k].value());
   const std::uint32_t l = mLayerIndex[i];
   if (l != kNotInLayer) {
     for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g)
@@ -772,7 +817,7 @@ BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity
                                row.push_back({std::uint32_t(k), mGradientSum[k]});
                                const PairTerm* pair = mPairs.data() + mPairOffsets[k];
                                for (std::uint32_t q = 0; q < mPairCount[k]; ++q)
-                                 row.push_back({pair[q].neighbor, Vec3r(pair[q].gx, pair[q].gy, pair[q].gz)});
+                                 row.push_back({pair[q].neighbor, pair[q].value()});
                                const std::uint32_t l = mLayerIndex[k];
                                if (l != kNotInLayer)
                                  for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g)
@@ -882,10 +927,9 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
     const std::vector<Vec3r>& acceleration = c.acceleration;
     // The force limit's acceleration: gravity; the viscous part is bounded by its rate
     // (needs().dampingStep). With rigid bodies the water moves, every non-pressure
-    // acceleration, as before: their contacts and the fluid force they feel hold at those
-    // shorter steps (at 3 ms instead of 1.8 two resting crates sank 1.4 mm into each other,
-    // and the near-neutral cube of 800 tilted 2.9 degrees, bound 2; docs/dfsph-deep-water.md,
-    // "The time step").
+    // acceleration, as before: the fluid force they feel holds at those shorter steps (at
+    // 2.6 ms instead of 1.7 the near-neutral cube of 800 floated 2.3 % high instead of
+    // 1.7 %, and tilted 2.9 degrees, bound 2; docs/dfsph-deep-water.md, "The time step").
     const double maxA = tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, mOwned, 4096), 0.0,
         [&](const auto& range, double m) {

@@ -81,6 +81,7 @@
 
 #include "libsph/solver/BoundConstrainedCG.h"
 #include "libsph/solver/CoarseCorrection.h"
+#include "libsph/solver/HalfFloat.h"
 #include "libsph/solver/TimeStep.h"
 
 #include <vector>
@@ -174,12 +175,21 @@ private:
   std::vector<Real> mFactor, mKappaStep, mDensityRatio, mRate;
   std::vector<double> mScaling, mSolution, mGradient;  // the constant-density solve's scaled problem
   std::vector<Vec3r> mChange;                          // velocity change of a stiffness vector
-  /// One neighbour j strictly inside the support and V grad W_ij (16 bytes: one stream for the solves).
+  /// One neighbour j strictly inside the support and V grad W_ij as three IEEE halves
+  /// (HalfFloat.h): 10 bytes, one stream for the solves, which read it twice per operator
+  /// product. Every use of the pair (the density rate, G_i, the solves' diagonal, the
+  /// coarse operator) takes the rounded gradient, so the solve's operator is exactly
+  /// D G of these values; rounding keeps g_ji = -g_ij. Why: docs/dfsph-deep-water.md,
+  /// "Half-precision pair gradients".
+#pragma pack(push, 1)
   struct PairTerm {
     std::uint32_t neighbor;
-    Real gx, gy, gz;
+    std::uint16_t gradient[3];
+    Vec3r value() const { return Vec3r(floatFromHalf(gradient[0]), floatFromHalf(gradient[1]), floatFromHalf(gradient[2])); }
   };
-  std::vector<PairTerm> mPairs;               // row i at the neighbour list's offsets[i], mPairCount[i] used
+#pragma pack(pop)
+  std::vector<PairTerm> mPairs;  // row i at the neighbour list's offsets[i], mPairCount[i] used; one record of padding
+  bool mHalfInstructions = false;  // F16C (with AVX2): the products convert 4 halves an instruction
   const std::uint32_t* mPairOffsets = nullptr;
   const Vec3r* mPosition = nullptr;  // the particles' positions during the step
   Real mSupportRadius = 0;

@@ -13,6 +13,7 @@
 
 #include <cmath>
 #include <sstream>
+#include <utility>
 
 namespace cascade::test {
 
@@ -191,16 +192,28 @@ TEST(RigidBody, ACubeDroppedOnAnotherRestsOnIt) {
   EXPECT_NEAR(b.center().x(), 0.26, 2e-3);  // landed flat: no slide, no topple
 }
 
-TEST(RigidBody, TwoBodiesMeetingHeadOnExchangeMomentumAndDoNotPass) {
-  // No gravity, no fluid: cube A at 1 m/s meets cube B at rest (equal masses, no
-  // restitution): both go on at 0.5 m/s together, the momentum kept.
+namespace {
+/// No gravity, no fluid, 1 cm spacing.
+SimulationSettings weightless() {
   SimulationSettings settings;
   settings.fluid.spacing = 0.01f;
   settings.solver.gravity = Vec3r::Zero();
-  Simulation sim(settings);
+  return settings;
+}
+/// A 1 x 0.5 x 0.5 m tank and two 0.1 m cubes of 800 on its centre line, their bottoms at
+/// z = 0.2 and their centres at x = xa and xb: the cubes' indices.
+std::pair<std::size_t, std::size_t> addTwoCubes(Simulation& sim, Real xa, Real xb) {
   sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(1.0f, 0.5f, 0.5f)));
-  const std::size_t ia = sim.addBoundary(floatingCube(Vec3r(0.2f, 0.25f, 0.2f), 0.1f, 800, "a"));
-  const std::size_t ib = sim.addBoundary(floatingCube(Vec3r(0.4f, 0.25f, 0.2f), 0.1f, 800, "b"));
+  const std::size_t ia = sim.addBoundary(floatingCube(Vec3r(xa, 0.25f, 0.2f), 0.1f, 800, "a"));
+  return {ia, sim.addBoundary(floatingCube(Vec3r(xb, 0.25f, 0.2f), 0.1f, 800, "b"))};
+}
+} // namespace
+
+TEST(RigidBody, TwoBodiesMeetingHeadOnExchangeMomentumAndDoNotPass) {
+  // No gravity, no fluid: cube A at 1 m/s meets cube B at rest (equal masses, no
+  // restitution): both go on at 0.5 m/s together, the momentum kept.
+  Simulation sim(weightless());
+  const auto [ia, ib] = addTwoCubes(sim, 0.2f, 0.4f);
   auto& a = const_cast<MovingBoundary&>(*sim.movingSolid(ia));
   const MovingBoundary& b = *sim.movingSolid(ib);
   a.body()->setVelocity(Vec3d(1, 0, 0), Vec3d::Zero());
@@ -219,6 +232,48 @@ TEST(RigidBody, TwoBodiesMeetingHeadOnExchangeMomentumAndDoNotPass) {
   EXPECT_NEAR(b.velocity().linear.x(), 0.5, 1e-3);
   EXPECT_GT(closest, -1e-3);  // never more than 1 mm into each other
   EXPECT_LT(a.velocity().angular.norm(), 1e-6);
+}
+
+TEST(RigidBody, BodiesLeftInsideEachOtherArePushedApart) {
+  // No gravity, no fluid: two cubes at rest placed 3 mm into each other, as a longer
+  // step that the contacts did not fully clear leaves them. Their contact points start
+  // inside the other solid, where no move enters it: each goes out through the nearest
+  // face (Boundary::escape). Without that the overlap stayed for good (the two crates
+  // of BakeBodies sank 1.4 mm into each other at DFSPH's longer steps).
+  const SimulationSettings settings = weightless();
+  Simulation sim(settings);
+  const auto [ia, ib] = addTwoCubes(sim, 0.3f, 0.397f);
+  const MovingBoundary &a = *sim.movingSolid(ia), &b = *sim.movingSolid(ib);
+  sim.advanceTo(0.05);
+  const double gap = (b.center().x() - 0.05) - (a.center().x() + 0.05);
+  EXPECT_GT(gap, -1e-4);  // apart (to within a tenth of a millimetre)
+  EXPECT_LT(gap, 3e-3);   // not thrown apart: no restitution, the overlap only removed
+  // Pushed apart equally (equal masses), along x; across it by no more than the contact
+  // clearance (0.1 mm: the points on the shared side planes lie on the other's faces too).
+  EXPECT_NEAR(a.center().x() - 0.3, 0.397 - b.center().x(), 1e-6);
+  const double clearance = 0.01 * settings.fluid.spacing;
+  for (const MovingBoundary* body : {&a, &b}) {
+    EXPECT_NEAR(body->center().y(), 0.25, clearance);
+    EXPECT_NEAR(body->center().z(), 0.25, clearance);
+  }
+  const double massA = a.body()->mass(), massB = b.body()->mass();
+  EXPECT_NEAR((massA * a.velocity().linear + massB * b.velocity().linear).norm(), 0.0, 1e-9 * massA);
+  EXPECT_LT(a.velocity().angular.norm() + b.velocity().angular.norm(), 1e-6);
+}
+
+TEST(RigidBody, ABodyLeftInsideAStaticMeshIsPushedOut) {
+  // A cube whose lower 3 mm lie inside a static slab (a mesh obstacle) rests on the
+  // slab's top after the first steps, instead of sinking through it.
+  SimulationSettings settings;
+  settings.fluid.spacing = 0.01f;
+  Simulation sim(settings);
+  sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(0.5f, 0.5f, 0.5f)));
+  sim.addBoundary(boxObstacle(Vec3r(0.1f, 0.1f, 0.0f), Vec3r(0.4f, 0.4f, 0.1f), "slab"));
+  const std::size_t index = sim.addBoundary(floatingCube(Vec3r(0.25f, 0.25f, 0.097f), 0.1f, 800));
+  const MovingBoundary& cube = *sim.movingSolid(index);
+  sim.advanceTo(0.5);
+  EXPECT_NEAR(cube.center().z(), 0.15, 5e-4);
+  EXPECT_LT(cube.velocity().linear.norm(), 1e-2);
 }
 
 TEST(RigidBody, APrescribedPaddlePushesABodyAlongTheFloor) {
