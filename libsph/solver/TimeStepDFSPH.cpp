@@ -281,12 +281,12 @@ struct StiffnessLane {
   const Real* step;
   CASCADE_DFSPH_TARGET __m128 operator()(std::uint32_t j) const { return _mm_set1_ps(step[j]); }
 };
-/// divergence(): v_j (x, y as 8 bytes, then z; the fourth lane 0).
+/// divergence(): v_j (x, y as 8 unaligned bytes, then z; the fourth lane 0).
 struct VelocityLane {
   const Vec3r* velocity;
   CASCADE_DFSPH_TARGET __m128 operator()(std::uint32_t j) const {
     const float* v = velocity[j].data();
-    return _mm_movelh_ps(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(v))), _mm_load_ss(v + 2));
+    return _mm_movelh_ps(_mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(v))), _mm_load_ss(v + 2));
   }
 };
 CASCADE_DFSPH_TARGET Vec3r rowChangeF16c(const void* pairs, std::uint32_t count, const Real* step) {
