@@ -65,7 +65,4 @@ inline float floatFromHalf(std::uint16_t h) {
   return f;
 }
 
-/// f rounded to the nearest half, as a float.
-inline float roundToHalf(float f) { return floatFromHalf(halfFromFloat(f)); }
-
 } // namespace cascade
