@@ -487,13 +487,9 @@ bool MeshBoundary::penetrated(const Vec3r& from, const Vec3r& to, Real clearance
 }
 
 bool MeshBoundary::escape(const Vec3r& x, Real clearance, Vec3r& exit, Vec3r& normal) const {
-  if (!isInside(x)) return false;
-  const Impl& m = *mImpl;
-  Vec3d point;
-  const long t = m.closest(x.cast<double>(), (m.hi - m.lo).norm(), point);
-  if (t < 0) return false;
-  normal = m.faceNormal[t].cast<Real>();
-  exit = point.cast<Real>() + clearance * normal;
+  Vec3r point;
+  if (!isInside(x) || !closestPoint(x, Real((mImpl->hi - mImpl->lo).norm()), point, normal)) return false;
+  exit = point + clearance * normal;
   return true;
 }
 

@@ -154,6 +154,10 @@ Real imageCouplings(std::vector<ImageSums>& images, const Vec3r& xi, const std::
   return sum;
 }
 
+// Bytes of one pair record (TimeStepDFSPH::PairTerm): the neighbour's index, then V grad W_ij
+// as three halves. The AVX2/F16C loops below write and read the records by this stride.
+constexpr std::size_t kPairBytes = 10;
+
 #ifdef CASCADE_DFSPH_AVX2
 #define CASCADE_DFSPH_TARGET __attribute__((target("avx2,fma,f16c")))
 
@@ -224,7 +228,7 @@ CASCADE_DFSPH_TARGET void fluidPairsAvx2(const Vec3r& xi, const Vec3r& vi, const
       _mm_store_si128(reinterpret_cast<__m128i*>(halves[1]), hy);
       _mm_store_si128(reinterpret_cast<__m128i*>(halves[2]), hz);
       for (std::uint32_t l = 0; l < lanes; ++l) {
-        unsigned char* record = out + 10 * std::size_t(base + l);
+        unsigned char* record = out + kPairBytes * std::size_t(base + l);
         std::memcpy(record, &index[l], 4);
         const std::uint16_t g[3] = {halves[0][l], halves[1][l], halves[2][l]};
         std::memcpy(record + 4, g, 6);
@@ -268,7 +272,7 @@ template <typename Lane>
 CASCADE_DFSPH_TARGET __m128 rowSumF16c(const void* pairs, std::uint32_t count, const Lane& lane) {
   const unsigned char* record = static_cast<const unsigned char*>(pairs);
   __m128 sum = _mm_setzero_ps();
-  for (std::uint32_t k = 0; k < count; ++k, record += 10) {
+  for (std::uint32_t k = 0; k < count; ++k, record += kPairBytes) {
     std::uint32_t j;
     std::memcpy(&j, record, 4);
     const __m128 g = _mm_cvtph_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(record + 4)));
@@ -500,7 +504,7 @@ void TimeStepDFSPH::prepare(StepContext& c) {
   // 2 (d + 2) nu = 10 nu, plus the artificial term for approaching pairs.
   auto viscousFactor = [&](Real vx) { return Real(10) * nu + (vx < 0 ? artificial : Real(0)); };
   std::vector<Vec3r>& acceleration = c.acceleration;
-  static_assert(sizeof(PairTerm) == 10, "pair terms are 10-byte records");
+  static_assert(sizeof(PairTerm) == kPairBytes, "pair terms are 10-byte records, as the AVX2/F16C loops step");
   mPosition = particles.position.data();
   mSupportRadius = h;
   const bool avx2 = haveAvx2() && std::getenv("CASCADE_NO_AVX2") == nullptr;
