@@ -303,6 +303,21 @@ CASCADE_DFSPH_TARGET Real rowDivergenceF16c(const void* pairs, std::uint32_t cou
   _mm_store_ps(lane, rowSumF16c(pairs, count, VelocityLane{velocity}));
   return (lane[0] + lane[1]) + lane[2];
 }
+/// The coarse operator's rows (TimeStepDFSPH::solveOneSided): a row's records as
+/// (neighbour, gradient) coefficients, each record's halves widened by one instruction (as above).
+CASCADE_DFSPH_TARGET void appendRowF16c(const void* pairs, std::uint32_t count,
+                                        std::vector<CoarseCorrection::Coefficient>& row) {
+  const unsigned char* record = static_cast<const unsigned char*>(pairs);
+  const std::size_t first = row.size();
+  row.resize(first + count);
+  CoarseCorrection::Coefficient* out = row.data() + first;
+  for (std::uint32_t k = 0; k < count; ++k, record += kPairBytes) {
+    std::memcpy(&out[k].source, record, 4);
+    alignas(16) float g[4];
+    _mm_store_ps(g, _mm_cvtph_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(record + 4))));
+    out[k].change = Vec3r(g[0], g[1], g[2]);
+  }
+}
 #else
 bool haveAvx2() { return false; }
 #endif
@@ -820,8 +835,13 @@ BoundConstrainedResult TimeStepDFSPH::solveOneSided(std::vector<Vec3r>& velocity
                                // the velocity change of k per unit stiffness of each source (velocityChange)
                                row.push_back({std::uint32_t(k), mGradientSum[k]});
                                const PairTerm* pair = mPairs.data() + mPairOffsets[k];
-                               for (std::uint32_t q = 0; q < mPairCount[k]; ++q)
-                                 row.push_back({pair[q].neighbor, pair[q].value()});
+#ifdef CASCADE_DFSPH_AVX2
+                               if (mHalfInstructions)
+                                 appendRowF16c(pair, mPairCount[k], row);
+                               else
+#endif
+                                 for (std::uint32_t q = 0; q < mPairCount[k]; ++q)
+                                   row.push_back({pair[q].neighbor, pair[q].value()});
                                const std::uint32_t l = mLayerIndex[k];
                                if (l != kNotInLayer)
                                  for (std::uint32_t g = mGhostOffsets[l]; g < mGhostOffsets[l + 1]; ++g)

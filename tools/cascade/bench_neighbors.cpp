@@ -17,6 +17,13 @@
 //                         stay sized for the largest).
 // Brute force runs up to 100k only, and is skipped (a row says so) when its
 // time estimated from 10k passes a minute.
+//
+// Memory traffic: `bytes_per_particle` is what a build and self query must move at
+// least, each once: the positions read (12 bytes), the grid's sorted copy written
+// (positions and index, 16), the lists written (4 per neighbour and 4 for the
+// offset). `gb_per_s` is that over the build and query time, and `stream_share` its
+// share of the machine's measured memory rate (a triad a = b + s c over 3 x 64 MB on
+// every thread, best of 5, printed first): how near the search is to being memory bound.
 #include "Benchmarks.h"
 
 #include "libsph/NeighborSearch.h"
@@ -76,6 +83,23 @@ void zOrderPoints(std::vector<Vec3r>& points, Real radius) {
   points.swap(sorted);
 }
 
+/// The machine's memory rate, GB/s: a[i] = b[i] + s c[i] over three 64 MB arrays on every
+/// thread, 24 bytes per element (the writes' line fills not counted), best of 5.
+double streamTriadRate() {
+  const std::size_t n = std::size_t(8) << 20;
+  std::vector<double> a(n, 0.0), b(n, 1.0), c(n, 2.0);
+  double best = 1e300;
+  for (int r = 0; r < 5; ++r) {
+    const auto start = std::chrono::steady_clock::now();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1 << 16), [&](const auto& range) {
+      for (std::size_t i = range.begin(); i != range.end(); ++i) a[i] = b[i] + 3.0 * c[i];
+    });
+    best = std::min(best, millisecondsSince(start));
+  }
+  if (a[n / 2] != 7.0) return 0.0;  // (uses the result)
+  return 24.0 * double(n) / (best * 1e-3) / 1e9;
+}
+
 struct Timing {
   double buildMs = 1e300, queryMs = 1e300;
   double buildCpuMs = 1e300, queryCpuMs = 1e300;
@@ -86,7 +110,9 @@ struct Timing {
 
 BenchTable benchNeighbors() {
   BenchTable table("neighbors", {"method", "n", "build_ms", "query_ms", "ns_per_particle",
-                                 "neighbors_per_particle"});
+                                 "neighbors_per_particle", "bytes_per_particle", "gb_per_s", "stream_share"});
+  const double stream = streamTriadRate();
+  std::fprintf(stderr, "  memory rate (triad, all threads): %.1f GB/s\n", stream);
   const Real spacing = Real(0.01);
   const Real radius = Real(2.1) * spacing;
   const std::size_t sizes[] = {10000, 100000, 1000000};
@@ -94,8 +120,12 @@ BenchTable benchNeighbors() {
   std::size_t bruteN = 0;
 
   auto addRow = [&](const std::string& method, std::size_t n, const Timing& t) {
+    const double neighbors = double(t.pairs) / double(n);
+    const double bytes = 12.0 + 16.0 + 4.0 * neighbors + 4.0;  // positions in, sorted copy, lists out
+    const double rate = bytes * double(n) / ((t.buildMs + t.queryMs) * 1e-3) / 1e9;
     table.addRow({method, static_cast<long long>(n), t.buildMs, t.queryMs,
-                  (t.buildMs + t.queryMs) * 1e6 / double(n), double(t.pairs) / double(n)});
+                  (t.buildMs + t.queryMs) * 1e6 / double(n), neighbors, bytes, rate,
+                  stream > 0 ? rate / stream : 0.0});
     std::fprintf(stderr, "  %-18s n=%-8zu build %.2f ms (cpu %.2f), query %.2f ms (cpu %.2f)\n",
                  method.c_str(), n, t.buildMs, t.buildCpuMs, t.queryMs, t.queryCpuMs);
   };
@@ -142,7 +172,7 @@ BenchTable benchNeighbors() {
       if (estimateMs > 60000.0) {
         const double nan = std::numeric_limits<double>::quiet_NaN();
         table.addRow({"brute (skipped: estimated " + std::to_string(int(estimateMs / 1000)) + " s > 60 s)",
-                      static_cast<long long>(n), nan, nan, nan, nan});
+                      static_cast<long long>(n), nan, nan, nan, nan, nan, nan, nan});
       } else {
         BruteForceSearch brute;
         const Timing t = measure(brute, n <= 10000 ? 3 : 1);
