@@ -425,3 +425,45 @@ TEST_F(Bake, UnstableBakeExits3NamingTheParticle) {
   EXPECT_FALSE(manifest["stages"]["bake"]["done"].get<bool>());
   fs::remove_all(out);
 }
+
+// `cascade bench step --from OUT` times a shot where its bake stopped: the simulation is
+// set up from OUT/scene.json and continued from OUT's checkpoint, and OUT is only read.
+TEST_F(Bake, BenchStepContinuesAShotFromItsCheckpointAndLeavesItAsItWas) {
+  const OutputLayout layout(*reference);
+  const fs::path checkpoint = *reference / ".checkpoint" / "bake.ckpt";
+  ASSERT_TRUE(fs::exists(checkpoint));
+  const std::string before = readTextFile(checkpoint);
+  const fs::path json = freshDir("bench_from").string() + ".json", log = json.string() + ".log";
+  ASSERT_EQ(run({"bench", "step", "--from", reference->string(), "--steps", "3", "--json", json.string()}, log), 0)
+      << readLog(log);
+  const nlohmann::json table = nlohmann::json::parse(readTextFile(json));
+  ASSERT_EQ(table["results"].size(), 1u);
+  const nlohmann::json& row = table["results"][0];
+  EXPECT_EQ(row["case"], "dambreak frame 12");
+  EXPECT_EQ(row["solver"], nlohmann::json::parse(readTextFile(layout.scene()))["solver"]["type"]);
+  EXPECT_EQ(row["n_fluid"].get<long long>(), static_cast<long long>(readParticleFrame(layout.particles(12)).size()));
+  // Timed from the checkpoint's time (frame 12) after the two untimed steps, not from the start.
+  const double t = row["t_s"].get<double>();
+  EXPECT_GT(t, 12.0 / 60.0);
+  EXPECT_LT(t, 12.0 / 60.0 + 0.01);
+  EXPECT_GT(row["ms_per_step"].get<double>(), 0.0);
+  EXPECT_EQ(readTextFile(checkpoint), before);
+
+  // Refused with one line and exit 2: no checkpoint, or a checkpoint of another scene.
+  const fs::path empty = freshDir("bench_from_empty");
+  fs::create_directories(empty);
+  fs::copy_file(layout.scene(), empty / "scene.json");
+  EXPECT_EQ(run({"bench", "step", "--from", empty.string()}, log), 2);
+  const std::string refused = readLog(log);
+  EXPECT_NE(refused.find("has no bake checkpoint"), std::string::npos) << refused;
+  EXPECT_EQ(std::count(refused.begin(), refused.end(), '\n'), 1) << refused;
+  const fs::path edited = freshDir("bench_from_edited");
+  fs::copy(*reference, edited, fs::copy_options::recursive);
+  nlohmann::json scene = nlohmann::json::parse(readTextFile(edited / "scene.json"));
+  scene["fluid"]["viscosity"] = scene["fluid"]["viscosity"].get<double>() * 2 + 1e-3;
+  writeTextAtomically(edited / "scene.json", scene.dump(2));
+  EXPECT_EQ(run({"bench", "step", "--from", edited.string()}, log), 2);
+  EXPECT_NE(readLog(log).find("another version of its scene"), std::string::npos) << readLog(log);
+  fs::remove_all(edited);
+  fs::remove_all(empty);
+}

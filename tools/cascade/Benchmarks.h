@@ -6,6 +6,7 @@
 
 #include "libsph/solver/Simulation.h"
 
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,8 @@ BenchPaths& benchPaths();
 
 BenchTable benchNeighbors();  ///< bench_neighbors.cpp
 BenchTable benchStep();       ///< bench_step.cpp
+/// bench_step.cpp: `steps` steps of the bake in `out`, continued from its checkpoint.
+BenchTable benchStepFrom(const std::filesystem::path& out, int steps);
 /// bench step's dam break (bench_step.cpp): the settings, and a column of about `target`
 /// particles against the back wall of a tank four columns long.
 SimulationSettings benchDamBreakSettings();

@@ -21,6 +21,8 @@ void addBenchCommand(CLI::App& app) {
     std::string json;
     std::string plot;
     std::vector<int> ranks;
+    std::string from;
+    int steps = 0;  // 0: not given (20)
     long mpiChild = 0;
   };
   auto options = std::make_shared<Options>();
@@ -34,6 +36,10 @@ void addBenchCommand(CLI::App& app) {
                     "With step: MPI rank counts to compare with threads, e.g. 1,2 (runs mpirun -np N)")
       ->delimiter(',')
       ->check(CLI::Range(1, 4096));
+  bench->add_option("--from", options->from,
+                    "With step: time the bake in OUT from its checkpoint (its last baked frame) instead of the dam breaks");
+  bench->add_option("--steps", options->steps, "With step --from: steps to time (default 20, after 2 untimed)")
+      ->check(CLI::Range(1, 1000000));
   bench->add_option("--mpi-child", options->mpiChild, "With step under mpirun: one run of --ranks (internal)")
       ->group("");
   bench->callback([options] {
@@ -45,13 +51,17 @@ void addBenchCommand(CLI::App& app) {
       return;
     }
     if (!options->ranks.empty() && options->kind != "step") throw InputError("--ranks: only with `bench step`");
+    if (!options->from.empty() && options->kind != "step") throw InputError("--from: only with `bench step`");
+    if (!options->from.empty() && !options->ranks.empty()) throw InputError("--from: not with --ranks");
+    if (options->steps > 0 && options->from.empty()) throw InputError("--steps: only with `bench step --from`");
     static const std::map<std::string, BenchTable (*)()> kinds = {
         {"neighbors", benchNeighbors}, {"step", benchStep}, {"accuracy", benchAccuracy},
         {"surface", benchSurface},     {"render", benchRender},     {"bodies", benchBodies},
         {"whitewater", benchWhitewater}};
     benchPaths() = BenchPaths{options->json, options->plot};
-    const BenchTable table =
-        options->ranks.empty() ? kinds.at(options->kind)() : benchStepRanks(options->ranks, 100000);
+    const BenchTable table = !options->from.empty()   ? benchStepFrom(options->from, options->steps > 0 ? options->steps : 20)
+                             : options->ranks.empty() ? kinds.at(options->kind)()
+                                                      : benchStepRanks(options->ranks, 100000);
     std::cout << table.format() << std::flush;
     if (!options->json.empty()) table.writeJson(options->json);
     table.finish();
