@@ -21,7 +21,8 @@
 // Memory traffic: `bytes_per_particle` is what a build and self query must move at
 // least, each once: the positions read (12 bytes), the grid's sorted copy written
 // (positions and index, 16), the lists written (4 per neighbour and 4 for the
-// offset). `gb_per_s` is that over the build and query time, and `stream_share` its
+// offset; the other methods' rows count the same, as the least any search moves).
+// `gb_per_s` is that over the build and query time, and `stream_share` its
 // share of the machine's measured memory rate (a triad a = b + s c over 3 x 64 MB on
 // every thread, best of 5, printed first): how near the search is to being memory bound.
 #include "Benchmarks.h"
