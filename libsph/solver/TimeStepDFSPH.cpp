@@ -265,19 +265,27 @@ bool haveAvx2() {
   return supported;
 }
 
+/// A pair record's neighbour index.
+inline std::uint32_t recordNeighbor(const unsigned char* record) {
+  std::uint32_t j;
+  std::memcpy(&j, record, 4);
+  return j;
+}
+/// A pair record's gradient widened by F16C in one instruction: the three halves are read
+/// with the next record's first two bytes (the rows are padded by one record), so the
+/// fourth lane holds no value and every user drops it.
+CASCADE_DFSPH_TARGET inline __m128 recordGradient(const unsigned char* record) {
+  return _mm_cvtph_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(record + 4)));
+}
+
 /// The operator products' pair loops with F16C: sum over a row's records of
-/// lane(j) * g (four lanes: the record's three halves are read with the next record's
-/// first two bytes, the rows being padded by one record, and the fourth lane is dropped).
+/// lane(j) * g (four lanes, the fourth dropped).
 template <typename Lane>
 CASCADE_DFSPH_TARGET __m128 rowSumF16c(const void* pairs, std::uint32_t count, const Lane& lane) {
   const unsigned char* record = static_cast<const unsigned char*>(pairs);
   __m128 sum = _mm_setzero_ps();
-  for (std::uint32_t k = 0; k < count; ++k, record += kPairBytes) {
-    std::uint32_t j;
-    std::memcpy(&j, record, 4);
-    const __m128 g = _mm_cvtph_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(record + 4)));
-    sum = _mm_fmadd_ps(lane(j), g, sum);
-  }
+  for (std::uint32_t k = 0; k < count; ++k, record += kPairBytes)
+    sum = _mm_fmadd_ps(lane(recordNeighbor(record)), recordGradient(record), sum);
   return sum;
 }
 /// velocityChange(): s_j in every lane.
@@ -304,7 +312,7 @@ CASCADE_DFSPH_TARGET Real rowDivergenceF16c(const void* pairs, std::uint32_t cou
   return (lane[0] + lane[1]) + lane[2];
 }
 /// The coarse operator's rows (TimeStepDFSPH::solveOneSided): a row's records as
-/// (neighbour, gradient) coefficients, each record's halves widened by one instruction (as above).
+/// (neighbour, gradient) coefficients.
 CASCADE_DFSPH_TARGET void appendRowF16c(const void* pairs, std::uint32_t count,
                                         std::vector<CoarseCorrection::Coefficient>& row) {
   const unsigned char* record = static_cast<const unsigned char*>(pairs);
@@ -312,10 +320,9 @@ CASCADE_DFSPH_TARGET void appendRowF16c(const void* pairs, std::uint32_t count,
   row.resize(first + count);
   CoarseCorrection::Coefficient* out = row.data() + first;
   for (std::uint32_t k = 0; k < count; ++k, record += kPairBytes) {
-    std::memcpy(&out[k].source, record, 4);
     alignas(16) float g[4];
-    _mm_store_ps(g, _mm_cvtph_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(record + 4))));
-    out[k].change = Vec3r(g[0], g[1], g[2]);
+    _mm_store_ps(g, recordGradient(record));
+    out[k] = {recordNeighbor(record), Vec3r(g[0], g[1], g[2])};
   }
 }
 #else
