@@ -87,7 +87,7 @@ struct BoundaryParticles::Grid {
     });
   }
 
-  /// Calls visit(k) for every sample k within `radius` (<= cellSize) of p.
+  /// Calls visit(k, samples[k]) for every sample k within `radius` (<= cellSize) of p.
   template <typename F>
   void forEachWithin(const Vec3r& p, Real radius, const std::vector<Vec3r>& samples, F&& visit) const {
     long c[3] = {0, 0, 0};
@@ -107,7 +107,7 @@ struct BoundaryParticles::Grid {
         // cells lo..hi of a row are contiguous
         const std::uint32_t end = cellStart[row + hi[0] + 1];
         for (std::uint32_t k = cellStart[row + lo[0]]; k < end; ++k)
-          if (squaredDistance(p, samples[k]) <= radius2) visit(k);
+          if (squaredDistance(p, samples[k]) <= radius2) visit(k, samples[k]);
       }
   }
 };
@@ -115,8 +115,9 @@ struct BoundaryParticles::Grid {
 /// A coarse cell grid over the static solids: per cell, a bit for each lattice whose
 /// rectangle and each boundary whose surface triangles may lie within reach of a point in
 /// the cell (the sample radius for lattices, twice the mirror range for mirror maps:
-/// Boundary::mirrorsNearSurfaceMeshOnly()), so that
-/// update() skips the planes and boundaries that cannot matter to a particle. Moving
+/// Boundary::mirrorsNearSurfaceMeshOnly(), or the sample radius if larger), so that
+/// update() skips the planes and boundaries that cannot matter to a particle, and the
+/// mesh samples' grid (a miss in a large table) where no boundary sampled in it can. Moving
 /// solids and unbounded planes have their bit set everywhere. Conservative: a cell is
 /// marked when its centre lies within reach plus its half diagonal, so a particle's
 /// lists are exactly those of the full scan, in the same order.
@@ -182,10 +183,13 @@ void BoundaryParticles::makeProximity(const std::vector<BoundaryPtr>& boundaries
       p.everywhere |= std::uint64_t(1) << b;
       continue;
     }
+    // Reach: the maps' (twice the mirror range), and the sample radius of the samples on
+    // the surface (a boundary's bit also gates its samples in the mesh grid).
+    const double reach = std::max(2 * double(mirrorRange), double(sampleRadius));
     const TriangleMesh mesh = boundaries[b]->surfaceMesh();
     for (const auto& t : mesh.triangles)
       pieces.push_back({mesh.vertices[t[0]].cast<double>(), mesh.vertices[t[1]].cast<double>(),
-                        mesh.vertices[t[2]].cast<double>(), 2 * double(mirrorRange), std::uint32_t(b), false});
+                        mesh.vertices[t[2]].cast<double>(), reach, std::uint32_t(b), false});
   }
   Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::max()), hi = -lo;
   for (const Triangle& t : pieces)
@@ -249,6 +253,7 @@ void BoundaryParticles::sample(const std::vector<BoundaryPtr>& boundaries, Real 
   mSamples.clear();
   mOwners.clear();
   mLattices.clear();
+  mGridBoundaries = 0;
   // Lattices first (flat walls: found from a particle's plane coordinates),
   // then the other samples (meshes), indexed by the grid.
   std::vector<Vec3r> points;
@@ -258,12 +263,15 @@ void BoundaryParticles::sample(const std::vector<BoundaryPtr>& boundaries, Real 
     if (boundaries[b]->moves()) continue;  // below, in their own frames
     lattices.clear();
     boundaries[b]->sampleSurfaceLattices(maxGap, lattices, points);
+    if (points.size() > pointOwners.size())
+      mGridBoundaries |= b < Proximity::kMaxBits ? std::uint64_t(1) << b : ~std::uint64_t(0);
     pointOwners.resize(points.size(), static_cast<std::uint32_t>(b));
     for (const SampleLattice& lattice : lattices) {
       LatticeEntry entry;
       entry.lattice = lattice;
       entry.normal = lattice.axisU.cross(lattice.axisV).normalized();
       entry.first = static_cast<std::uint32_t>(mSamples.size());
+      entry.owner = static_cast<std::uint32_t>(b);
       lattice.append(mSamples);
       mOwners.resize(mSamples.size(), static_cast<std::uint32_t>(b));
       mLattices.push_back(entry);
@@ -391,10 +399,22 @@ bool latticeRange(Real s, Real reach, Real half, long intervals, long first, lon
 } // namespace
 
 template <typename F>
-void BoundaryParticles::forEachSampleWithin(const Vec3r& x, Real radius, std::uint64_t lattices, F&& visit) const {
+void BoundaryParticles::forEachSampleWithin(const Vec3r& x, Real radius, std::uint64_t lattices, bool nearGrid,
+                                            F&& visit) const {
   const Real radius2 = radius * radius;
-  for (std::size_t l = 0; l < mLattices.size(); ++l) {
-    if (l < Proximity::kMaxBits && !((lattices >> l) & 1u)) continue;
+  // The lattices whose bit is set, in order (every lattice past the bits' reach).
+  const std::size_t latticeCount = mLattices.size();
+  std::uint64_t pending = latticeCount >= Proximity::kMaxBits ? lattices
+                                                              : lattices & ((std::uint64_t(1) << latticeCount) - 1);
+  for (std::size_t l = 0; l < latticeCount; ++l) {
+    if (l < Proximity::kMaxBits) {
+      if (pending == 0) {
+        l = Proximity::kMaxBits - 1;  // none left among the first 64
+        continue;
+      }
+      l = std::size_t(__builtin_ctzll(pending));
+      pending &= pending - 1;
+    }
     const LatticeEntry& entry = mLattices[l];
     const SampleLattice& lattice = entry.lattice;
     const Vec3r relative = x - lattice.center;
@@ -412,24 +432,42 @@ void BoundaryParticles::forEachSampleWithin(const Vec3r& x, Real radius, std::ui
     // same floats) rather than from memory: no cache miss per row.
     for (long j = j0; j <= j1; ++j) {
       const std::uint32_t row = entry.first + static_cast<std::uint32_t>(lattice.offset(i0, j));
-      for (long i = i0; i <= i1; ++i)
-        if (squaredDistance(x, lattice.point(i, j)) <= radius2) visit(row + static_cast<std::uint32_t>(i - i0));
+      for (long i = i0; i <= i1; ++i) {
+        const Vec3r point = lattice.point(i, j);
+        if (squaredDistance(x, point) <= radius2) visit(row + static_cast<std::uint32_t>(i - i0), point, entry.owner);
+      }
     }
   }
-  if (mGrid) mGrid->forEachWithin(x, radius, mSamples, visit);
+  if (mGrid && nearGrid)
+    mGrid->forEachWithin(x, radius, mSamples, [&](std::uint32_t k, const Vec3r& p) { visit(k, p, mOwners[k]); });
   for (const MovingSet& set : mMoving) {
     if (!set.grid) continue;
     if (set.interval != -1) {
       // A sample within radius now lies within radius + reach of its midpoint.
-      set.grid->forEachWithin(x, radius + set.reach, set.middle, [&](std::uint32_t k) {
-        if (squaredDistance(x, mSamples[set.first + k]) <= radius2) visit(set.first + k);
+      set.grid->forEachWithin(x, radius + set.reach, set.middle, [&](std::uint32_t k, const Vec3r&) {
+        if (squaredDistance(x, mSamples[set.first + k]) <= radius2)
+          visit(set.first + k, mSamples[set.first + k], set.boundary);
       });
       continue;
     }
     // x in the solid's reference frame (a rigid motion keeps distances)
     const Vec3r local = (set.pose.rotation.transpose() * (x.cast<double>() - set.pose.translation)).cast<Real>();
-    set.grid->forEachWithin(local, radius, set.reference, [&](std::uint32_t k) { visit(set.first + k); });
+    set.grid->forEachWithin(local, radius, set.reference, [&](std::uint32_t k, const Vec3r&) {
+      visit(set.first + k, mSamples[set.first + k], set.boundary);
+    });
   }
+}
+
+std::uint64_t BoundaryParticles::boundariesNear(const Vec3r& x) const {
+  if (!mProximity) return ~std::uint64_t(0);
+  std::uint64_t lattices = 0, boundaries = 0;
+  mProximity->lookup(x, lattices, boundaries);
+  if (mProximity->boundaryCount > Proximity::kMaxBits) boundaries = ~std::uint64_t(0);
+  return boundaries;
+}
+
+Real BoundaryParticles::proximityReach() const {
+  return mProximity ? std::max(2 * mProximity->mirrorRange, mProximity->sampleRadius) : Real(0);
 }
 
 std::vector<std::size_t> BoundaryParticles::samplesPerBoundary(std::size_t boundaryCount) const {
@@ -452,6 +490,8 @@ void BoundaryParticles::update(const Particles& particles, const std::vector<Bou
   for (std::size_t c = 0; c < chunks; ++c) {
     out[c].maps.clear();
     out[c].samples.clear();
+    out[c].positions.clear();
+    out[c].owners.clear();
   }
   mMirrorOffsets.resize(n + 1);
   mSampleNeighbors.offsets.resize(n + 1);
@@ -477,7 +517,12 @@ void BoundaryParticles::update(const Particles& particles, const std::vector<Bou
         for (std::uint32_t b = 0; b < boundaryCount; ++b)
           if (b >= Proximity::kMaxBits || ((nearBoundaries >> b) & 1u)) boundaries[b]->mirrorMaps(x, mirrorRange, b, chunk.maps);
       if (samples)
-        forEachSampleWithin(x, sampleRadius, nearLattices, [&](std::uint32_t k) { chunk.samples.push_back(k); });
+        forEachSampleWithin(x, sampleRadius, nearLattices, (nearBoundaries & mGridBoundaries) != 0,
+                            [&](std::uint32_t k, const Vec3r& position, std::uint32_t owner) {
+                              chunk.samples.push_back(k);
+                              chunk.positions.push_back(position);
+                              chunk.owners.push_back(owner);
+                            });
       mMirrorOffsets[i + 1] = static_cast<std::uint32_t>(chunk.maps.size() - mapsBefore);
       mSampleNeighbors.offsets[i + 1] = static_cast<std::uint32_t>(chunk.samples.size() - samplesBefore);
     }
@@ -493,6 +538,8 @@ void BoundaryParticles::update(const Particles& particles, const std::vector<Bou
   }
   mMirrors.resize(mapTotal);
   mSampleNeighbors.indices.resize(sampleTotal);
+  mEntryPositions.resize(sampleTotal);
+  mEntryOwners.resize(sampleTotal);
   mMirrorOffsets[0] = 0;
   mSampleNeighbors.offsets[0] = 0;
   // Pass 2: offsets within chunks, copy.
@@ -510,12 +557,26 @@ void BoundaryParticles::update(const Particles& particles, const std::vector<Bou
     std::copy(chunk.maps.begin(), chunk.maps.end(), mMirrors.begin() + chunk.mapBase);
     std::copy(chunk.samples.begin(), chunk.samples.end(),
               mSampleNeighbors.indices.begin() + chunk.sampleBase);
+    std::copy(chunk.positions.begin(), chunk.positions.end(), mEntryPositions.begin() + chunk.sampleBase);
+    std::copy(chunk.owners.begin(), chunk.owners.end(), mEntryOwners.begin() + chunk.sampleBase);
   });
-  mLayer.clear();
-  for (std::size_t i = 0; i < n; ++i)
-    if (mMirrorOffsets[i + 1] > mMirrorOffsets[i] ||
-        mSampleNeighbors.offsets[i + 1] > mSampleNeighbors.offsets[i])
-      mLayer.push_back(static_cast<std::uint32_t>(i));
+  // The layer: per chunk its members, then placed in order.
+  std::vector<std::uint32_t> layerStart(chunks + 1, 0);
+  const auto inLayer = [&](std::size_t i) {
+    return mMirrorOffsets[i + 1] > mMirrorOffsets[i] || mSampleNeighbors.offsets[i + 1] > mSampleNeighbors.offsets[i];
+  };
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    std::uint32_t members = 0;
+    for (std::size_t i = c * kChunk, end = std::min(n, (c + 1) * kChunk); i < end; ++i) members += inLayer(i) ? 1u : 0u;
+    layerStart[c + 1] = members;
+  });
+  for (std::size_t c = 0; c < chunks; ++c) layerStart[c + 1] += layerStart[c];
+  mLayer.resize(layerStart[chunks]);
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    std::uint32_t next = layerStart[c];
+    for (std::size_t i = c * kChunk, end = std::min(n, (c + 1) * kChunk); i < end; ++i)
+      if (inLayer(i)) mLayer[next++] = static_cast<std::uint32_t>(i);
+  });
 }
 
 } // namespace cascade

@@ -64,6 +64,10 @@ public:
   }
   /// For fluid particle i: samples within sampleRadius (indices into samplePositions()).
   const NeighborLists& sampleNeighbors() const { return mSampleNeighbors; }
+  /// The position and owner of the sample at each entry of sampleNeighbors().indices,
+  /// kept with the lists (the passes read them in list order, not from the large arrays).
+  const std::vector<Vec3r>& sampleNeighborPositions() const { return mEntryPositions; }
+  const std::vector<std::uint32_t>& sampleNeighborOwners() const { return mEntryOwners; }
 
   // --- type II ---
   /// Mirror maps of fluid particle i: mirrors()[mirrorOffsets()[i] .. mirrorOffsets()[i+1]).
@@ -74,17 +78,31 @@ public:
   /// Fluid particles with any sample or mirror this step, ascending.
   const std::vector<std::uint32_t>& layer() const { return mLayer; }
 
+  /// Bit b set: boundary b's surface may lie within proximityReach() of x (moving
+  /// solids, unbounded planes and open tanks everywhere; every bit for boundaries past
+  /// 64, or before the first update()). A clear bit is certain: farther than that.
+  std::uint64_t boundariesNear(const Vec3r& x) const;
+  /// The reach of boundariesNear(), m (the last update()'s).
+  Real proximityReach() const;
+
   std::size_t sampleCount() const { return mSamples.size(); }
   /// The largest gap the samples were made with (sample()'s maxGap), m.
   Real sampleGap() const { return mGap; }
   /// Type I samples per boundary.
   std::vector<std::size_t> samplesPerBoundary(std::size_t boundaryCount) const;
+  /// Whether boundary b's samples are made afresh during the run (a deforming solid's,
+  /// at each frame interval): there they jump, where a rigid motion moves them smoothly.
+  bool resamples(std::uint32_t b) const {
+    for (const MovingSet& set : mMoving)
+      if (set.boundary == b) return set.interval != -1;
+    return false;
+  }
 
 private:
-  /// Calls visit(k) for every type I sample k within radius of x; lattices only those
-  /// whose bit is set in `lattices`.
+  /// Calls visit(k, position, owner) for every type I sample k within radius of x;
+  /// lattices only those whose bit is set in `lattices`, the mesh samples' grid only if `nearGrid`.
   template <typename F>
-  void forEachSampleWithin(const Vec3r& x, Real radius, std::uint64_t lattices, F&& visit) const;
+  void forEachSampleWithin(const Vec3r& x, Real radius, std::uint64_t lattices, bool nearGrid, F&& visit) const;
 
   /// Which lattices and boundaries can matter to a point (made by update() for its radii).
   struct Proximity;
@@ -95,6 +113,7 @@ private:
     SampleLattice lattice;
     Vec3r normal = Vec3r::UnitZ();
     std::uint32_t first = 0;  ///< index of its first point in mSamples
+    std::uint32_t owner = 0;  ///< its boundary
   };
   struct Grid;
   std::vector<LatticeEntry> mLattices;
@@ -121,14 +140,19 @@ private:
   std::vector<Vec3r> mMovingVelocity;
   std::vector<Vec3r> mSamples;
   std::vector<std::uint32_t> mOwners;
+  /// Bits of the boundaries whose samples are in mGrid (all bits past 64 boundaries).
+  std::uint64_t mGridBoundaries = 0;
   Real mGap = 0;
   NeighborLists mSampleNeighbors;
+  std::vector<Vec3r> mEntryPositions;
+  std::vector<std::uint32_t> mEntryOwners;
   std::vector<std::uint32_t> mMirrorOffsets{0};
   std::vector<MirrorMap> mMirrors;
   std::vector<std::uint32_t> mLayer;
   struct ChunkOut {  ///< update()'s per-chunk output
     std::vector<MirrorMap> maps;
-    std::vector<std::uint32_t> samples;
+    std::vector<std::uint32_t> samples, owners;
+    std::vector<Vec3r> positions;
     std::size_t mapBase = 0, sampleBase = 0;
   };
   std::vector<ChunkOut> mChunks;

@@ -15,6 +15,7 @@
 #pragma once
 
 #include "libsph/NeighborSearch.h"
+#include "libsph/search/CompressTable.h"
 
 #include <cstdint>
 #include <limits>
@@ -108,23 +109,6 @@ struct ScanBaseline {
 };
 
 #ifdef CASCADE_SCAN_X86
-
-/// compressTable()[mask] lists the lanes set in mask first (for a permute).
-struct CompressTable {
-  alignas(32) std::uint32_t lanes[256][8];
-  CompressTable() {
-    for (unsigned mask = 0; mask < 256; ++mask) {
-      unsigned k = 0;
-      for (unsigned lane = 0; lane < 8; ++lane)
-        if (mask & (1u << lane)) lanes[mask][k++] = lane;
-      for (; k < 8; ++k) lanes[mask][k] = 0;
-    }
-  }
-};
-inline const CompressTable& compressTable() {
-  static const CompressTable table;
-  return table;
-}
 
 struct ScanAvx2 {
   __attribute__((target("avx2,popcnt"))) static inline std::uint32_t scan(

@@ -601,14 +601,21 @@ void Simulation::keepOutOfSolids(double dt, std::size_t owned) {
   ReactionSums reactions(layer.size(), boundaries, 2, mPartition);  // impulse, its moment
   std::vector<std::uint64_t> chunkCounts(ReactionSums::chunks(layer.size()), 0);
   const double mass = double(mConstants.particleMass);
+  const Real reach = mBoundaryParticles.proximityReach(), reach2 = reach * reach;
   tbb::parallel_for(std::size_t(0), chunkCounts.size(), [&](std::size_t chunk) {
     const std::size_t end = std::min(layer.size(), (chunk + 1) * ReactionSums::kChunk);
     for (std::size_t k = chunk * ReactionSums::kChunk; k < end; ++k) {
       const std::uint32_t i = layer[k];
       if (i >= owned) continue;  // a ghost
       const Vec3r from = mLayerStart[k], to = mParticles.position[i];
+      // A move that enters a solid crosses its surface, so it ends within the move's
+      // length of it: a solid farther than the proximity's reach from `to` cannot have
+      // been entered by a shorter move.
+      const std::uint64_t near = squaredDistance(from, to) < reach2 ? mBoundaryParticles.boundariesNear(to)
+                                                                    : ~std::uint64_t(0);
       Vec3r exit, normal;
       for (std::size_t b = 0; b < boundaries; ++b) {
+        if (b < 64 && !((near >> b) & 1u)) continue;
         if (!mBoundaries[b]->penetrated(from, to, clearance, exit, normal)) continue;
         Vec3r& v = mParticles.velocity[i];
         const Vec3r change = -std::min((v - mBoundaries[b]->velocityAt(exit)).dot(normal), Real(0)) * normal;

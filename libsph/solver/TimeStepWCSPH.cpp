@@ -2,6 +2,7 @@
 
 #include "libsph/Kernels.h"
 #include "libsph/boundary/BoundaryParticles.h"
+#include "libsph/search/CompressTable.h"
 #include "libsph/solver/DomainPartition.h"
 #include "libsph/solver/EquationOfState.h"
 #include "libsph/solver/ReactionSums.h"
@@ -14,6 +15,8 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
+#include <stdexcept>
 
 #if (defined(__x86_64__) || defined(__i386__)) && !defined(CASCADE_DOUBLE) && \
     (defined(__GNUC__) || defined(__clang__))
@@ -190,6 +193,43 @@ Real kernelSumScalar(const KernelConstants& k, const wcsph::PairInput* particles
     const wcsph::PairInput& pj = particles[neighbors[n]];
     const Real r2 = squaredDistance(q, Vec3r(pj.x, pj.y, pj.z));
     if (r2 < k.supportRadius2) sum += valueShape<K>(k, r2);
+  }
+  return sum;
+}
+
+/// Mirror images summed in the fluid density's pass (type II, SEED section 2.2): up
+/// to kFusedImages pre-images y_m of a layer particle, each map's neighbours within
+/// sqrt(keep2) of y_m (keep2 >= h^2) written in list order to kept[m].
+constexpr int kFusedImages = 8;
+struct FusedImages {
+  int count = 0;
+  Vec3r preImage[kFusedImages];
+  std::uint32_t* kept[kFusedImages];
+  std::uint32_t keptCount[kFusedImages];
+  Real sum[kFusedImages];  ///< of W / valueCoeff around y_m over neighbours within h
+};
+
+/// sum_j W / valueCoeff over neighbours within h of q (if withFluid; else 0), and in the
+/// same pass each image's sum and kept neighbours (FusedImages), scalar.
+template <KernelPair K>
+Real kernelSumImagesScalar(const KernelConstants& k, const wcsph::PairInput* particles, const Vec3r& q,
+                           bool withFluid, const std::uint32_t* neighbors, std::uint32_t count, Real keep2,
+                           FusedImages& images) {
+  Real sum = 0;
+  for (int m = 0; m < images.count; ++m) images.sum[m] = 0, images.keptCount[m] = 0;
+  for (std::uint32_t n = 0; n < count; ++n) {
+    const wcsph::PairInput& pj = particles[neighbors[n]];
+    const Vec3r xj(pj.x, pj.y, pj.z);
+    if (withFluid) {
+      const Real r2 = squaredDistance(q, xj);
+      if (r2 < k.supportRadius2) sum += valueShape<K>(k, r2);
+    }
+    for (int m = 0; m < images.count; ++m) {
+      const Real r2 = squaredDistance(images.preImage[m], xj);
+      if (r2 < k.supportRadius2) images.sum[m] += valueShape<K>(k, r2);
+      images.kept[m][images.keptCount[m]] = neighbors[n];  // kept if within: no branch to mispredict
+      images.keptCount[m] += r2 < keep2 ? 1u : 0u;
+    }
   }
   return sum;
 }
@@ -372,6 +412,54 @@ CASCADE_WCSPH_TARGET Real kernelSumAvx2(const KernelConstants& k, const wcsph::P
   return horizontalSum(sum);
 }
 
+/// kernelSumImagesScalar, eight neighbours at a time: one load of the neighbours'
+/// positions for the fluid sum and every image's (each sum as kernelSumAvx2 makes it).
+template <KernelPair K>
+CASCADE_WCSPH_TARGET Real kernelSumImagesAvx2(const KernelConstants& k, const wcsph::PairInput* particles,
+                                              const Vec3r& q, bool withFluid, const std::uint32_t* neighbors,
+                                              std::uint32_t count, Real keep2, FusedImages& images) {
+  const __m256 qx = _mm256_set1_ps(q.x()), qy = _mm256_set1_ps(q.y()), qz = _mm256_set1_ps(q.z());
+  const __m256 h2 = _mm256_set1_ps(k.supportRadius2), keepRadius2 = _mm256_set1_ps(keep2);
+  const auto& compress = search::compressTable().lanes;
+  __m256 sum = _mm256_setzero_ps();
+  __m256 imageSum[kFusedImages];
+  std::uint32_t kept[kFusedImages];
+  for (int m = 0; m < images.count; ++m) imageSum[m] = _mm256_setzero_ps(), kept[m] = 0;
+  for (std::uint32_t first = 0; first < count; first += 8) {
+    const std::uint32_t lanes = std::min<std::uint32_t>(8, count - first);
+    const __m256 laneBits = lanes < 8 ? laneMask(lanes) : _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+    __m256 x, y, z;
+    loadPositions(particles, neighbors + first, lanes, x, y, z);
+    const __m256i index =  // the lanes' neighbour indices (none read past the list)
+        _mm256_maskload_epi32(reinterpret_cast<const int*>(neighbors + first), _mm256_castps_si256(laneBits));
+    if (withFluid) {
+      const __m256 dx = _mm256_sub_ps(qx, x), dy = _mm256_sub_ps(qy, y), dz = _mm256_sub_ps(qz, z);
+      const __m256 r2 =
+          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+      const __m256 within = _mm256_and_ps(_mm256_cmp_ps(r2, h2, _CMP_LT_OQ), laneBits);
+      sum = _mm256_add_ps(sum, _mm256_and_ps(valueShapeAvx2<K>(k, r2), within));
+    }
+    for (int m = 0; m < images.count; ++m) {
+      const Vec3r& p = images.preImage[m];
+      const __m256 dx = _mm256_sub_ps(_mm256_set1_ps(p.x()), x), dy = _mm256_sub_ps(_mm256_set1_ps(p.y()), y),
+                   dz = _mm256_sub_ps(_mm256_set1_ps(p.z()), z);
+      const __m256 r2 =
+          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+      const unsigned keep =
+          unsigned(_mm256_movemask_ps(_mm256_and_ps(_mm256_cmp_ps(r2, keepRadius2, _CMP_LT_OQ), laneBits)));
+      const __m256 within = _mm256_and_ps(_mm256_cmp_ps(r2, h2, _CMP_LT_OQ), laneBits);
+      imageSum[m] = _mm256_add_ps(imageSum[m], _mm256_and_ps(valueShapeAvx2<K>(k, r2), within));
+      // The kept lanes' indices packed to the front, stored whole (the room has 8 to spare).
+      const __m256i packed = _mm256_permutevar8x32_epi32(
+          index, _mm256_load_si256(reinterpret_cast<const __m256i*>(compress[keep])));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(images.kept[m] + kept[m]), packed);
+      kept[m] += unsigned(__builtin_popcount(keep));
+    }
+  }
+  for (int m = 0; m < images.count; ++m) images.sum[m] = horizontalSum(imageSum[m]), images.keptCount[m] = kept[m];
+  return horizontalSum(sum);
+}
+
 std::atomic<bool> gAvx2Allowed{true};
 
 bool wcsphUsesAvx2() {
@@ -407,6 +495,31 @@ Real kernelSum(const KernelConstants& k, const wcsph::PairInput* particles, cons
   if (wcsphUsesAvx2()) return kernelSumAvx2<K>(k, particles, q, neighbors, count);
 #endif
   return kernelSumScalar<K>(k, particles, q, neighbors, count);
+}
+
+template <KernelPair K>
+Real kernelSumImages(const KernelConstants& k, const wcsph::PairInput* particles, const Vec3r& q, bool withFluid,
+                     const std::uint32_t* neighbors, std::uint32_t count, Real keep2, FusedImages& images) {
+#ifdef CASCADE_WCSPH_AVX2
+  if (wcsphUsesAvx2()) return kernelSumImagesAvx2<K>(k, particles, q, withFluid, neighbors, count, keep2, images);
+#endif
+  return kernelSumImagesScalar<K>(k, particles, q, withFluid, neighbors, count, keep2, images);
+}
+
+/// The fluid sum around q (if withFluid) and the images' sums and kept lists
+/// (FusedImages) in one pass over neighbours[0 .. count).
+Real kernelSumImages(const KernelConstants& k, const wcsph::PairInput* particles, const Vec3r& q, bool withFluid,
+                     const std::uint32_t* neighbors, std::uint32_t count, Real keep2, FusedImages& images) {
+  switch (k.pair) {
+    case KernelPair::Mueller2003:
+      return kernelSumImages<KernelPair::Mueller2003>(k, particles, q, withFluid, neighbors, count, keep2, images);
+    case KernelPair::CubicSpline:
+      return kernelSumImages<KernelPair::CubicSpline>(k, particles, q, withFluid, neighbors, count, keep2, images);
+    case KernelPair::Automatic:  // chosen in Simulation::start
+    case KernelPair::WendlandC2:
+      return kernelSumImages<KernelPair::WendlandC2>(k, particles, q, withFluid, neighbors, count, keep2, images);
+  }
+  return 0;
 }
 
 /// sum_j W_ij / valueCoeff over neighbours[0 .. count) within h of q.
@@ -511,21 +624,11 @@ bool isOrthogonal(const Eigen::Matrix<Real, 3, 3>& linear) {
 /// a layer particle's neighbours. An orthogonal map over a whole half-space is an
 /// isometry: |x_i - (M x_j + o)| = |y - x_j| with y = M^T (x_i - o), so the sum over
 /// the images is the fluid sum around i's pre-image y (true). Any other map (a mesh
-/// face's, imaging only the fluid in front of it) is summed image by image
-/// (forEachImageInFront).
+/// face's, imaging only the fluid in front of it) is summed image by image.
 bool sumsAroundPreImage(const MirrorMap& map) { return isOrthogonal(map.linear) && !map.frontOnly; }
 
 /// i's pre-image y = M^T (x_i - o) (sumsAroundPreImage).
 Vec3r preImage(const MirrorMap& map, const Vec3r& xi) { return map.linear.transpose() * (xi - map.offset); }
-
-/// Calls visit(j) for each of i's neighbours j that has an image under `map` (not
-/// behind a front-only map: its image would lie in the fluid).
-template <typename Visit>
-void forEachImageInFront(const MirrorMap& map, const Vec3r& xi, const std::vector<Vec3r>& position,
-                         const std::uint32_t* begin, const std::uint32_t* end, Visit&& visit) {
-  for (const std::uint32_t* j = begin; j != end; ++j)
-    if (!map.behind(xi, position[*j])) visit(*j);
-}
 
 } // namespace
 
@@ -551,55 +654,159 @@ void gatherPairInputs(StepContext& c, Workspace& workspace) {
   kernelNormalisation(c, workspace);
 }
 
+namespace {
+/// Sizes the mirror pairs of this step's maps (Workspace::mirrorNeighbors): room for
+/// every neighbour under every map of the boundary layer, and per map whether its
+/// passes sum around the pre-image.
+void prepareMirrorPairs(const StepContext& c, Workspace& workspace) {
+  const BoundaryParticles& boundary = c.boundary;
+  const std::vector<MirrorMap>& maps = boundary.mirrors();
+  workspace.mirrorBegin.resize(maps.size());
+  workspace.mirrorCount.assign(maps.size(), 0);
+  workspace.mirrorPreImage.resize(maps.size());
+  if (maps.empty()) return;
+  const std::vector<std::uint32_t>& layer = boundary.layer();
+  const std::vector<std::uint32_t>& mapOffsets = boundary.mirrorOffsets();
+  const NeighborLists& nl = c.neighbors;
+  // A prefix sum over chunks of the layer. Each map's room has 8 entries to spare:
+  // the vector loops store kept indices eight at a time.
+  constexpr std::size_t kChunk = 1024, kRoomSpare = 8;
+  const std::size_t chunks = (layer.size() + kChunk - 1) / kChunk;
+  std::vector<std::size_t> chunkStart(chunks + 1, 0);
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t chunk) {
+    std::size_t room = 0;
+    for (std::size_t k = chunk * kChunk, end = std::min(layer.size(), k + kChunk); k < end; ++k)
+      room += std::size_t(boundary.mirrorCount(layer[k])) * (nl.count(layer[k]) + kRoomSpare);
+    chunkStart[chunk + 1] = room;
+  });
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk) chunkStart[chunk + 1] += chunkStart[chunk];
+  if (chunkStart[chunks] > std::numeric_limits<std::uint32_t>::max())
+    throw std::length_error("WCSPH mirror pairs: more than 2^32 candidates in one step");
+  workspace.mirrorNeighbors.resize(chunkStart[chunks]);
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t chunk) {
+    std::size_t next = chunkStart[chunk];
+    for (std::size_t k = chunk * kChunk, end = std::min(layer.size(), k + kChunk); k < end; ++k) {
+      const std::uint32_t i = layer[k];
+      for (std::uint32_t m = mapOffsets[i]; m < mapOffsets[i + 1]; ++m) {
+        workspace.mirrorBegin[m] = static_cast<std::uint32_t>(next);
+        workspace.mirrorPreImage[m] = sumsAroundPreImage(maps[m]);
+        next += nl.count(i) + kRoomSpare;
+      }
+    }
+  });
+}
+
+/// For layer particle i: the sum of W / valueCoeff over its fluid neighbours (if
+/// `fluid` is not null) and over the mirror images of itself and its neighbours
+/// under each of its maps, in one pass over the neighbours for the fluid and up to
+/// kFusedImages maps summed around pre-images (more take more passes); writes each
+/// map's mirror pairs (Workspace::mirrorNeighbors). Returns the images' sum, added
+/// map by map in map order.
+Real densityWithImages(const StepContext& c, const KernelConstants& kernel, const PairInput* records,
+                       std::uint32_t i, Real keep2, Workspace& workspace, Real* fluid) {
+  const std::vector<MirrorMap>& maps = c.boundary.mirrors();
+  const std::uint32_t mapBegin = c.boundary.mirrorOffsets()[i], mapEnd = c.boundary.mirrorOffsets()[i + 1];
+  const NeighborLists& nl = c.neighbors;
+  const Real h2 = kernel.supportRadius2;
+  const Vec3r xi(records[i].x, records[i].y, records[i].z);
+  // Each pre-image map's sum, by its place among i's maps.
+  constexpr std::uint32_t kInline = 32;
+  Real inlineSums[kInline];
+  std::vector<Real> manySums(mapEnd - mapBegin > kInline ? mapEnd - mapBegin : 0);
+  Real* imageSums = manySums.empty() ? inlineSums : manySums.data();
+  FusedImages images;
+  std::uint32_t slot[kFusedImages];
+  bool fluidDone = fluid == nullptr;
+  const auto flush = [&] {
+    const Real sum = kernelSumImages(kernel, records, xi, !fluidDone, nl.begin(i), nl.count(i), keep2, images);
+    if (!fluidDone) *fluid = sum, fluidDone = true;
+    for (int f = 0; f < images.count; ++f) {
+      imageSums[slot[f]] = images.sum[f];
+      workspace.mirrorCount[mapBegin + slot[f]] = images.keptCount[f];
+    }
+    images.count = 0;
+  };
+  for (std::uint32_t m = mapBegin; m < mapEnd; ++m) {
+    if (!workspace.mirrorPreImage[m]) continue;
+    images.preImage[images.count] = preImage(maps[m], xi);
+    images.kept[images.count] = workspace.mirrorNeighbors.data() + workspace.mirrorBegin[m];
+    slot[images.count++] = m - mapBegin;
+    if (images.count == kFusedImages) flush();
+  }
+  if (images.count > 0 || !fluidDone) flush();
+  Real sum = 0;
+  for (std::uint32_t m = mapBegin; m < mapEnd; ++m) {
+    const MirrorMap& map = maps[m];
+    // The mirror of i itself, then of each neighbour.
+    const Real self2 = squaredDistance(xi, map.apply(xi));
+    if (self2 < h2) sum += valueShape(kernel, self2);
+    if (workspace.mirrorPreImage[m]) {
+      sum += imageSums[m - mapBegin];
+      continue;
+    }
+    // Image by image: only of the fluid in front of a front-only map.
+    std::uint32_t* out = workspace.mirrorNeighbors.data() + workspace.mirrorBegin[m];
+    std::uint32_t kept = 0;
+    for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j) {
+      const Vec3r xj(records[*j].x, records[*j].y, records[*j].z);
+      if (map.behind(xi, xj)) continue;  // its image would lie in the fluid
+      const Real r2 = squaredDistance(xi, map.apply(xj));
+      if (r2 < h2) sum += valueShape(kernel, r2);
+      if (r2 < keep2) out[kept++] = *j;
+    }
+    workspace.mirrorCount[m] = kept;
+  }
+  return sum;
+}
+
+/// Kept mirror pairs: images within h, with a margin of 1e-4 h^2 so that every later
+/// pass's own test (around the pre-image, or image by image) finds all its pairs among them.
+Real mirrorKeepRadius2(const KernelConstants& kernel) { return Real(1.0001) * kernel.supportRadius2; }
+
+/// Checks that the mirror pairs were collected for this step's maps.
+void requireMirrorNeighbors(const StepContext& c, const Workspace& workspace) {
+  if (workspace.mirrorCount.size() != c.boundary.mirrors().size())
+    throw std::logic_error("WCSPH: the mirror passes need the mirror pairs of this step's maps");
+}
+} // namespace
+
+void collectMirrorNeighbors(StepContext& c, Workspace& workspace) {
+  prepareMirrorPairs(c, workspace);
+  if (c.boundary.mirrors().empty()) return;
+  const KernelConstants kernel(c.settings.solver.kernels, c.constants.supportRadius);
+  const Real keep2 = mirrorKeepRadius2(kernel);
+  const PairInput* records = workspace.particles.data();
+  const std::vector<std::uint32_t>& layer = c.boundary.layer();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, layer.size(), 256), [&](const auto& range) {
+    for (std::size_t k = range.begin(); k != range.end(); ++k)
+      if (c.boundary.mirrorCount(layer[k]) > 0) densityWithImages(c, kernel, records, layer[k], keep2, workspace, nullptr);
+  });
+}
+
 void computeFluidDensity(StepContext& c, Workspace& workspace) {
   gatherPairInputs(c, workspace);
+  prepareMirrorPairs(c, workspace);
   Particles& particles = c.particles;
   const PairInput* records = workspace.particles.data();
   const KernelConstants kernel(c.settings.solver.kernels, c.constants.supportRadius);
   const Real scale = workspace.normalisation.densityScale;
   const Real self = valueShape(kernel, 0);
+  const Real keep2 = mirrorKeepRadius2(kernel);
   const NeighborLists& nl = c.neighbors;
+  const bool mirrors = !c.boundary.mirrors().empty();
   // The owned particles (over MPI ranks the halo's densities come from their owners).
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, c.ownedCount(), 512), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const Real sum = kernelSum(kernel, records, particles.position[i], nl.begin(i), nl.count(i));
-      particles.density[i] = scale * kernel.valueCoeff * (self + sum);  // SEED (4)
-    }
-  });
-}
-
-void addMirrorDensity(StepContext& c, const Workspace& workspace) {
-  const BoundaryParticles& boundary = c.boundary;
-  if (boundary.mirrors().empty()) return;
-  Particles& particles = c.particles;
-  const KernelConstants kernel(c.settings.solver.kernels, c.constants.supportRadius);
-  const Real scale = workspace.normalisation.densityScale;
-  const Real h2 = kernel.supportRadius2;
-  const NeighborLists& nl = c.neighbors;
-  const PairInput* records = workspace.particles.data();
-  const std::vector<std::uint32_t>& layer = boundary.layer();
-  const std::size_t owned = c.ownedCount();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, layer.size(), 256), [&](const auto& range) {
-    for (std::size_t k = range.begin(); k != range.end(); ++k) {
-      const std::uint32_t i = layer[k];
-      if (i >= owned) continue;  // a halo copy
-      const Vec3r xi = particles.position[i];
-      Real sum = 0;  // of W / valueCoeff
-      auto add = [&](Real r2) {
-        if (r2 < h2) sum += valueShape(kernel, r2);
-      };
-      for (std::uint32_t m = boundary.mirrorOffsets()[i]; m < boundary.mirrorOffsets()[i + 1]; ++m) {
-        const MirrorMap& map = boundary.mirrors()[m];
-        // The mirror of i itself, then of each neighbour.
-        add(squaredDistance(xi, map.apply(xi)));
-        if (sumsAroundPreImage(map))
-          sum += kernelSum(kernel, records, preImage(map, xi), nl.begin(i), nl.count(i));
-        else
-          forEachImageInFront(map, xi, particles.position, nl.begin(i), nl.end(i), [&](std::uint32_t j) {
-            add(squaredDistance(xi, map.apply(particles.position[j])));
-          });
+      if (!mirrors || c.boundary.mirrorCount(i) == 0) {
+        const Real sum = kernelSum(kernel, records, particles.position[i], nl.begin(i), nl.count(i));
+        particles.density[i] = scale * kernel.valueCoeff * (self + sum);  // SEED (4)
+        continue;
       }
-      particles.density[i] += scale * kernel.valueCoeff * sum;
+      // The boundary layer: the fluid and its type II images in one pass.
+      Real sum = 0;
+      const Real images = densityWithImages(c, kernel, records, std::uint32_t(i), keep2, workspace, &sum);
+      particles.density[i] = scale * kernel.valueCoeff * (self + sum);  // SEED (4)
+      particles.density[i] += scale * kernel.valueCoeff * images;
     }
   });
 }
@@ -676,9 +883,11 @@ void computeDensityRate(StepContext& c, Workspace& workspace) {
       rate[i] = mass * (divergence + diffusion * laplacian);
     }
   });
-  // The mirror images (as addMirrorDensity sums them): the same continuity sum.
+  // The mirror images (as computeFluidDensity sums them): the same continuity sum, over
+  // the mirror pairs (collectMirrorNeighbors).
   const BoundaryParticles& boundary = c.boundary;
   if (boundary.mirrors().empty()) return;
+  requireMirrorNeighbors(c, workspace);
   const std::vector<std::uint32_t>& layer = boundary.layer();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, layer.size(), 256), [&](const auto& range) {
     for (std::size_t k = range.begin(); k != range.end(); ++k) {
@@ -693,21 +902,23 @@ void computeDensityRate(StepContext& c, Workspace& workspace) {
       };
       for (std::uint32_t m = boundary.mirrorOffsets()[i]; m < boundary.mirrorOffsets()[i + 1]; ++m) {
         const MirrorMap& map = boundary.mirrors()[m];
+        const std::uint32_t* list = workspace.mirrorList(m);
+        const std::uint32_t* const listEnd = list + workspace.mirrorCount[m];
         add(xi, vi, map.apply(xi), map.imageVelocity(vi, false));
-        if (sumsAroundPreImage(map)) {
+        if (workspace.mirrorPreImage[m]) {
           // Around i's pre-image y, with v_i - (w + M (v_j - w)) = M (u - v_j) for the
           // velocities: the fluid sum around (y, u), u = M^T (v_i - w) + w.
           const Vec3r y = preImage(map, xi);
           const Vec3r u = map.linear.transpose() * (vi - map.wallVelocity) + map.wallVelocity;
-          for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j) {
+          for (const std::uint32_t* j = list; j != listEnd; ++j) {
             const PairInput& q = records[*j];
             add(y, u, Vec3r(q.x, q.y, q.z), Vec3r(q.vx, q.vy, q.vz));
           }
         } else {
-          forEachImageInFront(map, xi, c.particles.position, nl.begin(i), nl.end(i), [&](std::uint32_t j) {
-            const PairInput& q = records[j];
+          for (const std::uint32_t* j = list; j != listEnd; ++j) {
+            const PairInput& q = records[*j];
             add(xi, vi, map.apply(Vec3r(q.x, q.y, q.z)), map.imageVelocity(Vec3r(q.vx, q.vy, q.vz), false));
-          });
+          }
         }
       }
       rate[i] += mass * sum;
@@ -747,7 +958,7 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
   const ForceConstants k = forceConstants(c, workspace);
   const Real viscosityCoeff = viscosityFactor(c);
   const PairInput* records = workspace.particles.data();
-  const NeighborLists& nl = c.neighbors;
+  if (!boundary.mirrors().empty()) requireMirrorNeighbors(c, workspace);
   const bool noSlip = c.settings.boundary.slip == MirrorSlip::NoSlip;
   const Real r0 = c.constants.repulsionRadius, r02 = r0 * r0;
   const Real strength = c.constants.repulsionStrength;
@@ -759,9 +970,10 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
   // out of the scene's range (an overpressure blast) and the instability stop reports it.
   const Real fastApproach = c.constants.expectedSpeed;
   const Real blastApproach = Real(0.25) * c.settings.solver.instabilitySpeedFactor * c.constants.expectedSpeed;
-  const std::vector<Vec3r>& samples = boundary.samplePositions();
-  const std::vector<std::uint32_t>& owners = boundary.sampleOwners();
+  // Per entry of the type I lists: the sample, its position and its solid.
   const NeighborLists& sampleLists = boundary.sampleNeighbors();
+  const std::vector<Vec3r>& samples = boundary.sampleNeighborPositions();
+  const std::vector<std::uint32_t>& owners = boundary.sampleNeighborOwners();
   const Real mass = c.constants.particleMass;
 
   // Force and moment on each solid, the same in every run and on any rank count.
@@ -785,7 +997,7 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
       for (std::uint32_t m = boundary.mirrorOffsets()[i]; m < boundary.mirrorOffsets()[i + 1]; ++m) {
         const MirrorMap& map = boundary.mirrors()[m];
         Vec3r a = Vec3r::Zero();
-        if (!noSlip && sumsAroundPreImage(map)) {
+        if (!noSlip && workspace.mirrorPreImage[m]) {
           // Free slip: the mirror of j at M x_j + o with velocity w + M (v_j - w) (w
           // the wall's velocity). With y = M^T (x_i - o) and u = M^T (v_i - w) + w,
           // x_i - M x_j - o = M (y - x_j) and v_i - w - M (v_j - w) = M (u - v_j):
@@ -795,7 +1007,7 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
           const Real invRhoi = Real(1) / rhoi;
           const ForceQuery q{y.x(), y.y(), y.z(), u.x(), u.y(), u.z(), pi, rhoi, invRhoi};
           const std::uint32_t self = i;
-          ForceSums sums = forceSums(k, records, q, nl.begin(i), nl.count(i));
+          ForceSums sums = forceSums(k, records, q, workspace.mirrorList(m), workspace.mirrorCount[m]);
           addPairTerms(k, q, records[self], sums);
           a = map.linear * (sums.pressure - (viscosityCoeff * invRhoi) * sums.viscous);
         } else {
@@ -812,7 +1024,8 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
             addPairTerms(k, q, image, sums);
           };
           visit(i);  // i's own image (never behind its map)
-          forEachImageInFront(map, xi, particles.position, nl.begin(i), nl.end(i), visit);
+          const std::uint32_t* list = workspace.mirrorList(m);
+          std::for_each(list, list + workspace.mirrorCount[m], visit);
           a = sums.pressure - (viscosityCoeff * invRhoi) * sums.viscous;
         }
         total += a;
@@ -822,8 +1035,8 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
       }
       // Type I: SEED (11) f = D [(r0/r)^12 - (r0/r)^4] r / r^2, for r < r0.
       if (strength > 0 && sampleLists.count(i) > 0) {
-        const auto repulsion = [&](std::uint32_t sample, Vec3r& a) {
-          const Vec3r r = xi - samples[sample];
+        const auto repulsion = [&](std::uint32_t entry, Vec3r& a) {
+          const Vec3r r = xi - samples[entry];
           const Real r2 = r.squaredNorm();
           if (r2 >= r02) return false;
           const Real q2 = r02 / std::max(r2, minR2);
@@ -844,11 +1057,13 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
           return solids < kSolids ? solids : kSolids - 1;
         };
         Vec3r a;
-        for (const std::uint32_t* s = sampleLists.begin(i); s != sampleLists.end(i); ++s)
-          if (repulsion(*s, a)) {
-            const int k = slotOf(owners[*s]);
+        const std::uint32_t entryBegin = sampleLists.offsets[i], entryEnd = sampleLists.offsets[i + 1];
+        for (std::uint32_t e = entryBegin; e < entryEnd; ++e)
+          if (repulsion(e, a)) {
+            const int k = slotOf(owners[e]);
             if (k == solids)
-              solid[solids] = owners[*s], push[solids] = Vec3r::Zero(), wallVelocity[solids] = boundary.sampleVelocity(*s),
+              solid[solids] = owners[e], push[solids] = Vec3r::Zero(),
+              wallVelocity[solids] = boundary.sampleVelocity(sampleLists.indices[e]),
               scale[solids++] = 1;
             push[k] += a;
           }
@@ -860,7 +1075,12 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
         // velocity from the other forces, along the push) but not throw it out
         // faster than it came or than contactSpeed: an elastic bounce at most.
         // Contact with one solid keeps SEED (11) as it is unless the approach is
-        // faster than D = v_expected^2 can stop in time (fastApproach, blastApproach).
+        // faster than D = v_expected^2 can stop in time (fastApproach, blastApproach),
+        // or the solid deforms: its samples are made afresh at each frame of its mesh
+        // sequence, and a new sample can land next to a particle that sat between the
+        // old ones (a cube growing in water, 1.2 cm spacing: the r^-12 push at 0.2 r0
+        // threw a particle at rest out at 27 m/s, and the run stopped).
+
         if (timeStep > 0) {
           const Vec3r w = vi + timeStep * (c.acceleration[i] + total);
           for (int k = 0; k < solids; ++k) {
@@ -868,16 +1088,18 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
             if (magnitude <= 0) continue;
             const Vec3r relative = w - wallVelocity[k];  // the approach to the solid, moving or not
             const Real approach = std::max(Real(0), -relative.dot(push[k]) / magnitude);
-            if (solids == 1 && (approach <= fastApproach || approach > blastApproach)) continue;
+            if (solids == 1 && (approach <= fastApproach || approach > blastApproach) &&
+                !boundary.resamples(solid[k]))
+              continue;
             const Real allowed = (approach + std::max(approach, contactSpeed)) / timeStep;
             if (magnitude > allowed) scale[k] = allowed / magnitude;
           }
         }
         for (int k = 0; k < solids; ++k) total += scale[k] * push[k];
-        for (const std::uint32_t* s = sampleLists.begin(i); s != sampleLists.end(i); ++s) {
-          const std::uint32_t owner = owners[*s];
-          if (owner < boundaryCount && repulsion(*s, a))
-            react(owner, -(mass * scale[slotOf(owner)] * a).cast<double>(), samples[*s]);
+        for (std::uint32_t e = entryBegin; e < entryEnd; ++e) {
+          const std::uint32_t owner = owners[e];
+          if (owner < boundaryCount && repulsion(e, a))
+            react(owner, -(mass * scale[slotOf(owner)] * a).cast<double>(), samples[e]);
         }
       }
       c.acceleration[i] += total;
@@ -943,13 +1165,13 @@ void TimeStepWCSPH::advance(StepContext& c, Real dt) {
   auto start = Clock::now();
   if (continuity) {
     wcsph::gatherPairInputs(c, mWorkspace);
-  } else {
-    wcsph::computeFluidDensity(c, mWorkspace);
     c.timings.density += millisecondsSince(start);
     start = Clock::now();
-    wcsph::addMirrorDensity(c, mWorkspace);
+    wcsph::collectMirrorNeighbors(c, mWorkspace);
     c.timings.boundary += millisecondsSince(start);
     start = Clock::now();
+  } else {
+    wcsph::computeFluidDensity(c, mWorkspace);  // with the mirror images' density (type II)
   }
   wcsph::computePressure(c, mWorkspace);
   c.timings.density += millisecondsSince(start);

@@ -29,6 +29,7 @@
 
 #include "libsph/solver/TimeStep.h"
 
+#include <cstdint>
 #include <vector>
 
 namespace cascade {
@@ -56,6 +57,15 @@ struct Workspace {
   std::vector<PairInput> particles;
   std::vector<Real> densityRate;  ///< drho/dt of the continuity density, kg/m^3/s
   KernelNormalisation normalisation;
+  /// The mirror pairs of this step (computeFluidDensity, collectMirrorNeighbors): for
+  /// mirror map m of a layer
+  /// particle i (BoundaryParticles::mirrors()), those of i's neighbours j whose image
+  /// under m lies within h of i, in list order, at
+  /// mirrorNeighbors[mirrorBegin[m] .. mirrorBegin[m] + mirrorCount[m]).
+  std::vector<std::uint32_t> mirrorBegin, mirrorCount, mirrorNeighbors;
+  /// Per map: whether its passes sum around i's pre-image (an isometry over a half-space).
+  std::vector<std::uint8_t> mirrorPreImage;
+  const std::uint32_t* mirrorList(std::size_t m) const { return mirrorNeighbors.data() + mirrorBegin[m]; }
 };
 } // namespace wcsph
 
@@ -84,8 +94,10 @@ private:
 namespace wcsph {
 /// Fills the positions and velocities of workspace.particles.
 void gatherPairInputs(StepContext& context, Workspace& workspace);
-/// SEED (4): rho_i = m (W(0) + sum_j W(x_ij)) over fluid neighbours; fills
-/// the positions and velocities of workspace.particles.
+/// SEED (4): rho_i = m (W(0) + sum_j W(x_ij)) over fluid neighbours and, for the
+/// boundary layer, the type II mirror particles (images of i and its neighbours within
+/// h), summed in the same pass over the neighbours; collects the mirror pairs as
+/// collectMirrorNeighbors does. Fills the positions and velocities of workspace.particles.
 void computeFluidDensity(StepContext& context, Workspace& workspace);
 /// Continuity density (DensityEvolution::Continuity): workspace.densityRate =
 /// sum_j m (v_i - v_j) . grad W_ij (Monaghan 1992, eq. 2.17) plus the delta-SPH diffusion
@@ -98,8 +110,12 @@ void computeDensityRate(StepContext& context, Workspace& workspace);
 /// After integrateSymplecticEuler: rho_i += dt drho_i/dt at the step's start positions
 /// and the new velocities (the records' positions and densities, the particles' velocities).
 void integrateContinuityDensity(StepContext& context, Workspace& workspace, Real dt);
-/// Adds the mirror particles' density to the boundary layer.
-void addMirrorDensity(StepContext& context, const Workspace& workspace);
+/// The mirror pairs of the boundary layer (Workspace::mirrorNeighbors), from the
+/// positions in workspace.particles: each mirror pass then visits the few neighbours
+/// whose image is within h (a layer particle's map images about a quarter of its
+/// neighbours) instead of all. The passes below read them; call it again whenever the
+/// positions or the maps change.
+void collectMirrorNeighbors(StepContext& context, Workspace& workspace);
 /// SEED (10) or Tait for every particle; fills the pressures and densities of
 /// workspace.particles.
 void computePressure(StepContext& context, Workspace& workspace);
