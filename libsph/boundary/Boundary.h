@@ -180,6 +180,16 @@ public:
   /// false: an unbounded plane mirrors everywhere along it).
   virtual bool mirrorsNearSurfaceMeshOnly() const { return true; }
 
+  /// For a solid not bounded so (mirrorsNearSurfaceMeshOnly() false): false only if
+  /// mirrorMaps() gives no map, for `range`, to any point within `slack` of x. The
+  /// default, true, marks the solid everywhere in the proximity grid.
+  virtual bool mayMirrorNear(const Vec3r& x, Real slack, Real range) const {
+    (void)x;
+    (void)slack;
+    (void)range;
+    return true;
+  }
+
   /// Axis-aligned bounds of the surface.
   virtual void bounds(Vec3r& lo, Vec3r& hi) const = 0;
 

@@ -118,7 +118,9 @@ struct BoundaryParticles::Grid {
 /// Boundary::mirrorsNearSurfaceMeshOnly(), or the sample radius if larger), so that
 /// update() skips the planes and boundaries that cannot matter to a particle, and the
 /// mesh samples' grid (a miss in a large table) where no boundary sampled in it can. Moving
-/// solids and unbounded planes have their bit set everywhere. Conservative: a cell is
+/// solids have their bit set everywhere; solids not bounded by their surface (unbounded
+/// planes, open tanks) cell by cell by their own test (Boundary::mayMirrorNear) and
+/// everywhere outside the grid. Conservative: a cell is
 /// marked when its centre lies within reach plus its half diagonal, so a particle's
 /// lists are exactly those of the full scan, in the same order.
 struct BoundaryParticles::Proximity {
@@ -130,6 +132,7 @@ struct BoundaryParticles::Proximity {
   Real inverseCellSize = 1;
   long dims[3] = {0, 0, 0};
   std::uint64_t everywhere = 0;  ///< boundaries marked in every cell (and outside the grid)
+  std::uint64_t outside = 0;     ///< boundaries marked cell by cell and everywhere outside the grid
   std::vector<std::uint64_t> lattices, boundaries;  // per cell
 
   void lookup(const Vec3r& x, std::uint64_t& latticeBits, std::uint64_t& boundaryBits) const {
@@ -142,7 +145,7 @@ struct BoundaryParticles::Proximity {
       const Real f = std::floor((x[a] - origin[a]) * inverseCellSize);
       if (!(f >= 0 && f < Real(dims[a]))) {  // beyond every static solid's reach
         latticeBits = 0;
-        boundaryBits = everywhere;
+        boundaryBits = everywhere | outside;
         return;
       }
       c[a] = static_cast<long>(f);
@@ -178,9 +181,15 @@ void BoundaryParticles::makeProximity(const std::vector<BoundaryPtr>& boundaries
     pieces.push_back({c - u - v, c + u - v, c + u + v, double(sampleRadius), std::uint32_t(l), true});
     pieces.push_back({c - u - v, c + u + v, c - u + v, double(sampleRadius), std::uint32_t(l), true});
   }
+  std::vector<std::size_t> unbounded;  // static, but mirroring beyond reach of their surface
   for (std::size_t b = 0; b < boundaries.size(); ++b) {
-    if (boundaries[b]->moves() || !boundaries[b]->mirrorsNearSurfaceMeshOnly()) {
+    if (boundaries[b]->moves()) {
       p.everywhere |= std::uint64_t(1) << b;
+      continue;
+    }
+    if (!boundaries[b]->mirrorsNearSurfaceMeshOnly()) {
+      p.outside |= std::uint64_t(1) << b;
+      unbounded.push_back(b);  // marked below, cell by cell (an unbounded plane: every cell)
       continue;
     }
     // Reach: the maps' (twice the mirror range), and the sample radius of the samples on
@@ -237,6 +246,22 @@ void BoundaryParticles::makeProximity(const std::vector<BoundaryPtr>& boundaries
           const Vec3d centre = origin + cell * Vec3d(double(x) + 0.5, double(y) + 0.5, double(z) + 0.5);
           if ((closestOnTriangle(centre, t.a, t.b, t.c) - centre).norm() <= reach) bits[index] |= bit;
         }
+  }
+  // The unbounded ones cell by cell (an open tank's wall slabs, Boundary::mayMirrorNear), as
+  // far as twice the mirror range: the guard asks the solids marked where a move ends
+  // (boundariesNear), and a move that leaves the water through a wall ends within its
+  // length, at most that reach, of the wall.
+  for (std::size_t b : unbounded) {
+    const std::uint64_t bit = std::uint64_t(1) << b;
+    const Real slack = Real(halfDiagonal + std::max(2 * double(mirrorRange), double(sampleRadius)));
+    tbb::parallel_for(long(0), p.dims[2], [&](long z) {
+      for (long y = 0; y < p.dims[1]; ++y)
+        for (long x = 0; x < p.dims[0]; ++x) {
+          const Vec3d centre = origin + cell * Vec3d(double(x) + 0.5, double(y) + 0.5, double(z) + 0.5);
+          if (boundaries[b]->mayMirrorNear(centre.cast<Real>(), slack, mirrorRange))
+            p.boundaries[std::size_t((z * p.dims[1] + y) * p.dims[0] + x)] |= bit;
+        }
+    });
   }
   p.usable = true;
 }

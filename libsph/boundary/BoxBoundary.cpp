@@ -133,6 +133,24 @@ void BoxBoundary::mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryI
   maps.push_back(MirrorMap::reflection(mCenter + mRotation * closest, normal, boundaryIndex));
 }
 
+bool BoxBoundary::mayMirrorNear(const Vec3r& x, Real slack, Real range) const {
+  if (!mTank) return true;
+  // mirrorMaps' walk, for every point within slack of x: a wall's map is added when the
+  // point lies within range in front of it, and the walk stops (keeping the maps it
+  // added) at the first axis along which the point is far outside.
+  const Vec3r q = mRotation.transpose() * (x - mCenter);
+  bool any = false;
+  for (int axis = 0; axis < 3; ++axis) {
+    if (std::abs(q[axis]) > mHalf[axis] + range + slack) return any;
+    for (int side = 0; side < 2; ++side) {
+      if (!faceIsWall(axis, side)) continue;
+      const Real distance = mHalf[axis] - (side ? q[axis] : -q[axis]);
+      if (distance > -slack && distance < range + slack) any = true;
+    }
+  }
+  return any;
+}
+
 bool BoxBoundary::isInside(const Vec3r& x) const {
   const Vec3r q = mRotation.transpose() * (x - mCenter);
   bool within = true;

@@ -38,6 +38,8 @@ public:
   /// An open tank's side walls mirror at any height above the rim (its inside test and
   /// the guard treat them as going up without end): not bounded by its faces.
   bool mirrorsNearSurfaceMeshOnly() const override { return !mTank || mClosedTop; }
+  /// An open tank: near the slabs its walls mirror in (mirrorMaps' own tests, widened by slack).
+  bool mayMirrorNear(const Vec3r& x, Real slack, Real range) const override;
   void bounds(Vec3r& lo, Vec3r& hi) const override;
 
   /// Exact for both kinds: a solid block is entered where the move first meets it

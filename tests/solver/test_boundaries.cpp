@@ -174,7 +174,8 @@ TEST(BoundaryParticles, SampleListsAndMirrorMapsEqualAFullScanOnWallsSlopeMeshAn
   // lattices and boundaries out of reach: every list must be exactly the
   // brute-force set of samples within the radius, every particle's mirror maps
   // exactly those of asking every boundary in turn, and the samples exactly the
-  // boundaries' samples. Particles also above the open tank's rim and outside it.
+  // boundaries' samples. Particles also above the open tank's rim and outside it. And
+  // the solids the guard asks for a move are all it may enter.
   std::vector<BoundaryPtr> boundaries;
   boundaries.push_back(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(0.6f, 0.3f, 0.3f)));
   boundaries.push_back(BoxBoundary::solid(Vec3r(0.2f, 0.15f, 0.08f), Vec3r(0.15f, 0.1f, 0.02f),
@@ -186,6 +187,10 @@ TEST(BoundaryParticles, SampleListsAndMirrorMapsEqualAFullScanOnWallsSlopeMeshAn
   boundaries.push_back(MeshBoundary::load(cubePath, options));
   std::filesystem::remove(cubePath);
   boundaries.push_back(PlaneBoundary::infinite(Vec3r(0, 0, 0.25f), Vec3r(0, 0, -1), 0.1f));  // mirrors everywhere
+  // A shelf high above the tank: the proximity grid then reaches over the rim, where the
+  // open tank's cells are marked by its own test (Boundary::mayMirrorNear).
+  boundaries.push_back(BoxBoundary::solid(Vec3r(0.3f, 0.15f, 0.7f), Vec3r(0.05f, 0.05f, 0.01f),
+                                          Eigen::Matrix<Real, 3, 3>::Identity()));
   const Real gap = 0.006f, radius = 0.011f, mirrorRange = 0.02f;
   BoundaryParticles virtualParticles;
   virtualParticles.sample(boundaries, gap, radius);
@@ -239,6 +244,28 @@ TEST(BoundaryParticles, SampleListsAndMirrorMapsEqualAFullScanOnWallsSlopeMeshAn
     nonEmpty += brute.empty() ? 0 : 1;
   }
   EXPECT_GT(nonEmpty, 100u);
+
+  // The guard (Simulation::keepOutOfSolids) asks only the solids marked where a move
+  // ends, for moves shorter than the proximity's reach: every solid such a move enters
+  // must be marked there.
+  const Real reach = virtualParticles.proximityReach();
+  ASSERT_GT(reach, 0);
+  std::uniform_real_distribution<float> direction(-1.0f, 1.0f), length(0.0f, 0.99f);
+  std::size_t entries = 0;
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    for (int move = 0; move < 4; ++move) {
+      Vec3r d(direction(random), direction(random), direction(random));
+      if (d.norm() < 1e-3f) continue;
+      const Vec3r from = particles.position[i], to = from + (reach * length(random) / d.norm()) * d;
+      for (std::uint32_t b = 0; b < boundaries.size(); ++b) {
+        Vec3r exit, normal;
+        if (!boundaries[b]->penetrated(from, to, 0.001f, exit, normal)) continue;
+        ++entries;
+        EXPECT_TRUE((virtualParticles.boundariesNear(to) >> b) & 1u)
+            << "a move into boundary " << b << " ends at " << to.transpose();
+      }
+    }
+  EXPECT_GT(entries, 200u);
 }
 
 TEST(TriangleBand, ClosestPointEqualsAScanOverAllTriangles) {
