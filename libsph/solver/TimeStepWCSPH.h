@@ -58,9 +58,9 @@ struct Workspace {
   std::vector<Real> densityRate;  ///< drho/dt of the continuity density, kg/m^3/s
   KernelNormalisation normalisation;
   /// The mirror pairs of this step (computeFluidDensity, collectMirrorNeighbors): for
-  /// mirror map m of a layer
-  /// particle i (BoundaryParticles::mirrors()), those of i's neighbours j whose image
-  /// under m lies within h of i, in list order, at
+  /// mirror map m of a layer particle i (BoundaryParticles::mirrors()), those of i's
+  /// neighbours j whose image under m lies within h of i (and, for a front-only map,
+  /// in front of it), in list order, at
   /// mirrorNeighbors[mirrorBegin[m] .. mirrorBegin[m] + mirrorCount[m]).
   std::vector<std::uint32_t> mirrorBegin, mirrorCount, mirrorNeighbors;
   /// Per map: whether its passes sum around i's pre-image (an isometry over a half-space).
@@ -112,9 +112,8 @@ void computeDensityRate(StepContext& context, Workspace& workspace);
 void integrateContinuityDensity(StepContext& context, Workspace& workspace, Real dt);
 /// The mirror pairs of the boundary layer (Workspace::mirrorNeighbors), from the
 /// positions in workspace.particles: each mirror pass then visits the few neighbours
-/// whose image is within h (a layer particle's map images about a quarter of its
-/// neighbours) instead of all. The passes below read them; call it again whenever the
-/// positions or the maps change.
+/// whose image is within h (a fifth of them on the production tower) instead of all.
+/// The passes below read them; call it again whenever the positions or the maps change.
 void collectMirrorNeighbors(StepContext& context, Workspace& workspace);
 /// SEED (10) or Tait for every particle; fills the pressures and densities of
 /// workspace.particles.
