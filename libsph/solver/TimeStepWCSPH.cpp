@@ -1080,7 +1080,6 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
         // sequence, and a new sample can land next to a particle that sat between the
         // old ones (a cube growing in water, 1.2 cm spacing: the r^-12 push at 0.2 r0
         // threw a particle at rest out at 27 m/s, and the run stopped).
-
         if (timeStep > 0) {
           const Vec3r w = vi + timeStep * (c.acceleration[i] + total);
           for (int k = 0; k < solids; ++k) {
