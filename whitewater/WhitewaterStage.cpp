@@ -15,6 +15,8 @@
 
 #include <algorithm>
 #include <climits>
+#include <cmath>
+#include <cstdio>
 #include <chrono>
 #include <future>
 #include <map>
@@ -86,6 +88,12 @@ void keepFreedMemory() {
   ::mallopt(M_TRIM_THRESHOLD, INT_MAX);
 }
 
+double birthRateScale(const scene::WhitewaterSettings& settings, double spacing) {
+  if (settings.ratesPer == "particle") return settings.rateScale;
+  const double ratio = spacing / settings.referenceSpacing;
+  return settings.rateScale * ratio * ratio * (settings.ratesPer == "volume" ? ratio : 1.0);
+}
+
 std::string whitewaterHash(const WhitewaterStageOptions& options, const std::string& bakeHash) {
   nlohmann::json inputs{{"settings", scene::whitewaterSettingsToJson(options.settings)},
                         {"spacing", options.spacing},
@@ -138,6 +146,15 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
     return cache.time > 0 ? cache.time : frame / fps;
   };
 
+  if (options.settings.ratesPer != "particle") {
+    const bool volume = options.settings.ratesPer == "volume";
+    char line[240];
+    std::snprintf(line, sizeof line, "whitewater: rates per %s: x %.6g (spacing %.6g m against the reference %.6g m, %s)",
+                  volume ? "volume of water" : "area of water surface",
+                  std::pow(spacing / options.settings.referenceSpacing, volume ? 3 : 2), spacing,
+                  options.settings.referenceSpacing, volume ? "cubed" : "squared");
+    say(line);
+  }
   WhitewaterSolver solver(options.settings, options.gravity, spacing,
                           options.domain ? *options.domain : fluidBoundsGrown(firstCache));
   const Real h = Real(solver.supportRadius());
@@ -272,7 +289,7 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
       const FluidPotentials& potentials =
           framePotentials.of(*previousCache, h, label, float(limits.kineticEnergy[0]));
       const std::vector<float> rates = birthRates(potentials, limits, settings.trappedAirRate,
-                                                  settings.waveCrestRate, settings.rateScale);
+                                                  settings.waveCrestRate, birthRateScale(settings, spacing));
       frameReport.potentialSeconds = secondsSince(potentialStart);
       interval.assign(*previousCache, cache, t0, t1, label);
       next.particles = std::move(state.particles);

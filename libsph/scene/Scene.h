@@ -231,6 +231,13 @@ struct WhitewaterSettings {
   double trappedAirRate = 1000;   ///< k_ta: births per second of a fluid particle at full potentials
   double waveCrestRate = 1000;    ///< k_wc
   double rateScale = 1;           ///< multiplies both rates (the artist's knob)
+  /// "particle" (the paper): the rates are per fluid particle. "area" or
+  /// "volume": they are those of a bake at referenceSpacing, and a bake at
+  /// spacing s gives each fluid particle (s / referenceSpacing)^2 or ^3 of them:
+  /// the same births per area of water surface, or per litre of water, at any
+  /// resolution (docs/whitewater.md measures both).
+  std::string ratesPer = "particle";
+  double referenceSpacing = 0;    ///< m; needed by, and only by, "area" and "volume"
   std::array<double, 2> lifetime{2, 5};  ///< foam lifetime range, s (each particle draws one)
   int sprayNeighbors = 6;         ///< fewer fluid neighbours: spray
   int bubbleNeighbors = 20;       ///< more fluid neighbours: a bubble; between: foam

@@ -663,6 +663,13 @@ static WhitewaterSettings readWhitewaterSettings(const Context& context, const j
   w.trappedAirRate = reader.number("trapped_air_rate", w.trappedAirRate, Range::NonNegative);
   w.waveCrestRate = reader.number("wave_crest_rate", w.waveCrestRate, Range::NonNegative);
   w.rateScale = reader.number("rate_scale", w.rateScale, Range::NonNegative);
+  w.ratesPer = reader.choice("rates_per", w.ratesPer, {"particle", "area", "volume"});
+  w.referenceSpacing = reader.number("reference_spacing", w.referenceSpacing, Range::NonNegative);
+  if (w.ratesPer == "particle" && w.referenceSpacing > 0)
+    reader.fail(reader.pathOf("reference_spacing"),
+                "has no effect with rates per particle (set rates_per to \"area\" or \"volume\")");
+  if (w.ratesPer != "particle" && !(w.referenceSpacing > 0))
+    reader.fail(reader.pathOf("rates_per"), "\"" + w.ratesPer + "\" needs reference_spacing, the spacing m the rates are for");
   w.lifetime = range("lifetime", w.lifetime, true);
   w.sprayNeighbors = int(reader.integer("spray_neighbors", w.sprayNeighbors, 0));
   w.bubbleNeighbors = int(reader.integer("bubble_neighbors", w.bubbleNeighbors, 0));
@@ -686,7 +693,7 @@ WhitewaterSettings parseWhitewaterSettings(const json& value, const std::string&
 }
 
 json whitewaterSettingsToJson(const WhitewaterSettings& w) {
-  return {{"limits", w.limits},
+  json out{{"limits", w.limits},
           {"trapped_air", w.trappedAir},
           {"wave_crest", w.waveCrest},
           {"kinetic_energy", w.kineticEnergy},
@@ -702,6 +709,13 @@ json whitewaterSettingsToJson(const WhitewaterSettings& w) {
           {"substeps", w.substeps},
           {"seed", w.seed},
           {"ply", w.ply}};
+  // Only when set: the stage's input hash (made from this) stays that of the
+  // settings before the key existed, so their frames are kept.
+  if (w.ratesPer != "particle") {
+    out["rates_per"] = w.ratesPer;
+    out["reference_spacing"] = w.referenceSpacing;
+  }
+  return out;
 }
 
 namespace {

@@ -175,6 +175,8 @@ const std::vector<KeyDoc>& keyDocs() {
       {"whitewater.trapped_air_rate", "1/s", "Births per second of a fluid particle at full trapped-air potential (k_ta)."},
       {"whitewater.wave_crest_rate", "1/s", "Births per second of a fluid particle at full wave-crest potential (k_wc)."},
       {"whitewater.rate_scale", "", "Multiplies both birth rates: the artist's knob."},
+      {"whitewater.rates_per", "", "What the rates are per: `particle` (the paper), or per `area` of water surface or `volume` of water at reference_spacing (a bake at spacing s gives each particle (s / reference_spacing)^2 or ^3 of them)."},
+      {"whitewater.reference_spacing", "m", "The particle spacing the rates are for, with rates_per `area` or `volume` (and only then)."},
       {"whitewater.lifetime", "s", "[min, max] lifetime of a foam particle; each draws one."},
       {"whitewater.spray_neighbors", "", "Fewer fluid neighbours than this: spray."},
       {"whitewater.bubble_neighbors", "", "More than this: a bubble; between: foam. At least spray_neighbors."},

@@ -23,6 +23,7 @@
 #include <chrono>
 #include <fstream>
 #include <thread>
+#include <tuple>
 
 using namespace cascade;
 using namespace cascade::whitewater;
@@ -248,6 +249,60 @@ TEST(WhitewaterStage, AutomaticLimitsFromAnUnfinishedBakeAreSaidAndMadeAgainAfte
   EXPECT_EQ(final, checksums(whole, frames));
   // The limits did change: frames made with part of the bake's were not right.
   EXPECT_NE(std::vector<std::uint64_t>(final.begin(), final.begin() + 12), early);
+}
+
+TEST(WhitewaterStage, RatesPerAreaOrVolumeAreThePerParticleRatesTimesTheSpacingRatioSquaredOrCubed) {
+  // reference_spacing twice the bake's spacing: a particle holds (1/2)^2 of the
+  // reference's surface and (1/2)^3 of its water, so it gives birth at 1/4 or
+  // 1/8 of the rates. The particles equal, bit for bit, those of rate_scale 1/4
+  // or 1/8 (the factors are exact in binary), and not those of the per-particle
+  // default.
+  const fs::path perParticle = copyOf(towerBake(), "per_particle");
+  const int frames = frameCount(perParticle);
+  const double spacing = readParticleFrame(OutputLayout(perParticle).particles(1)).spacing;
+  ASSERT_GT(spacing, 0);
+  ASSERT_EQ(test::run({"whitewater", perParticle.string()}, scratch() / "per_particle.log"), 0);
+  const auto births = [&](const fs::path& out) {
+    return readWhitewaterHeader(OutputLayout(out).whitewater(frames)).nextId;
+  };
+  ASSERT_GT(births(perParticle), 1000u);
+  char reference[64];
+  std::snprintf(reference, sizeof reference, "%.17g", 2 * spacing);
+  for (const auto& [per, scale, words] :
+       {std::tuple{"area", "0.25", "rates per area of water surface: x 0.25"},
+        std::tuple{"volume", "0.125", "rates per volume of water: x 0.125"}}) {
+    const std::string name = std::string("per_") + per;
+    const fs::path out = copyOf(towerBake(), name);
+    const fs::path log = scratch() / (name + ".log");
+    ASSERT_EQ(test::run({"whitewater", out.string(), "--rates-per", per, "--reference-spacing", reference}, log), 0)
+        << test::readLog(log);
+    EXPECT_NE(test::readLog(log).find(words), std::string::npos) << test::readLog(log);
+    const fs::path scaled = copyOf(towerBake(), name + "_scaled");
+    ASSERT_EQ(test::run({"whitewater", scaled.string(), "--rate-scale", scale}, scratch() / (name + "_scaled.log")), 0);
+    EXPECT_EQ(checksums(out, frames), checksums(scaled, frames)) << per;
+    EXPECT_NEAR(double(births(out)) / double(births(perParticle)), std::stod(scale), std::stod(scale) * 0.2) << per;
+
+    // The keys in a scene's block do the same.
+    const fs::path fromScene = copyOf(towerBake(), name + "_scene");
+    nlohmann::json scene = nlohmann::json::parse(std::ifstream(fromScene / "scene.json"));
+    scene["whitewater"]["rates_per"] = per;
+    scene["whitewater"]["reference_spacing"] = 2 * spacing;
+    std::ofstream(fromScene / "scene.json") << scene.dump();
+    ASSERT_EQ(test::run({"whitewater", fromScene.string()}, scratch() / (name + "_scene.log")), 0);
+    EXPECT_EQ(checksums(fromScene, frames), checksums(scaled, frames)) << per;
+  }
+
+  // A spacing that would do nothing, or none where one is needed: bad input.
+  const auto expectBad = [&](const std::vector<std::string>& args, const std::string& words) {
+    const fs::path log = scratch() / "per_bad.log";
+    EXPECT_EQ(test::run(args, log), 2) << test::readLog(log);
+    EXPECT_NE(test::readLog(log).find(words), std::string::npos) << test::readLog(log);
+  };
+  expectBad({"whitewater", perParticle.string(), "--reference-spacing", reference},
+            "--reference-spacing: has no effect with rates per particle");
+  expectBad({"whitewater", perParticle.string(), "--rates-per", "area"}, "--rates-per: \"area\" needs reference_spacing");
+  expectBad({"whitewater", perParticle.string(), "--rates-per", "volume", "--reference-spacing", "-0.01"},
+            "--reference-spacing: must be >= 0");
 }
 
 TEST(WhitewaterStage, BadInputIsOneLineAndExitTwo) {

@@ -37,6 +37,8 @@ const std::vector<WhitewaterOption>& whitewaterOptions() {
       {"--trapped-air-rate", "trapped_air_rate", "Births per second of a fluid particle at full trapped-air potential", false, "FLOAT"},
       {"--wave-crest-rate", "wave_crest_rate", "Births per second of a fluid particle at full wave-crest potential", false, "FLOAT"},
       {"--rate-scale", "rate_scale", "Multiplies both birth rates", false, "FLOAT"},
+      {"--rates-per", "rates_per", "What the rates are per: particle (the paper) | area | volume (at --reference-spacing)", false, "particle|area|volume"},
+      {"--reference-spacing", "reference_spacing", "The particle spacing, m, that rates per area or volume are for", false, "FLOAT"},
       {"--lifetime", "lifetime", "Foam lifetime range MIN,MAX, s", true, "MIN,MAX"},
       {"--spray-neighbors", "spray_neighbors", "Fewer fluid neighbours than this: spray", false, "INT"},
       {"--bubble-neighbors", "bubble_neighbors", "More fluid neighbours than this: a bubble", false, "INT"},
