@@ -45,6 +45,7 @@ void FluidInterval::assign(const ParticleFrame& first, const ParticleFrame& seco
   mX1.resize(n);
   mV1.resize(n);
   mMatched.assign(n, 0);
+  mSecondIndex.assign(n, -1);
   const bool withIds = first.id.size() == n && second.id.size() == second.size();
   if (withIds) {
     mIds.assign(first.id.begin(), first.id.end());
@@ -60,6 +61,7 @@ void FluidInterval::assign(const ParticleFrame& first, const ParticleFrame& seco
           mX1[i] = x1[std::size_t(where[id])];
           mV1[i] = v1[std::size_t(where[id])];
           mMatched[i] = 1;
+          mSecondIndex[i] = where[id];
         }
       });
     } else {
@@ -72,6 +74,7 @@ void FluidInterval::assign(const ParticleFrame& first, const ParticleFrame& seco
         mX1[i] = x1[it->second];
         mV1[i] = v1[it->second];
         mMatched[i] = 1;
+        mSecondIndex[i] = std::int64_t(it->second);
       }
     }
   } else {
@@ -83,6 +86,7 @@ void FluidInterval::assign(const ParticleFrame& first, const ParticleFrame& seco
     mX1 = x1;
     mV1 = v1;
     mMatched.assign(n, 1);
+    std::iota(mSecondIndex.begin(), mSecondIndex.end(), std::int64_t(0));
   }
   mMaxSpeed = std::max(largestSpeed(mV0), largestSpeed(v1));
 }

@@ -42,13 +42,15 @@ public:
 
   /// Ids of the particles (those of the first frame, or indices without ids).
   const std::vector<std::uint32_t>& ids() const { return mIds; }
+  /// Where each particle is in the second frame's order (-1: gone from it).
+  const std::vector<std::int64_t>& secondIndex() const { return mSecondIndex; }
 
 private:
   double mT0 = 0, mT1 = 1, mMaxSpeed = 0;
   std::vector<Vec3r> mX0, mV0, mX1, mV1, mScratchX, mScratchV;
   std::vector<std::uint8_t> mMatched;
   std::vector<std::uint32_t> mIds;
-  std::vector<std::int64_t> mWhere;
+  std::vector<std::int64_t> mWhere, mSecondIndex;
 };
 
 /// Positions and velocities of a frame as float arrays (throws InputError naming

@@ -68,16 +68,63 @@ std::vector<DiffuseType> WhitewaterSolver::classify(const DiffuseParticles& part
   return types;
 }
 
+void WhitewaterSolver::frameRates(const std::vector<Vec3r>& positions, std::vector<float> rates,
+                                  FrameBirthRates& out) const {
+  out.rate = std::move(rates);
+  out.field.build(positions.data(), out.rate.data(), std::min(positions.size(), out.rate.size()), 2 * mRadius);
+}
+
 IntervalStats WhitewaterSolver::advance(const FluidInterval& fluid, const std::vector<float>& rates, int frame,
                                         DiffuseParticles& particles, std::uint32_t& nextId) {
+  FrameBirthRates atStart, atEnd;
+  std::vector<Vec3r> x, v;
+  fluid.at(fluid.t0(), x, v);
+  frameRates(x, rates, atStart);
+  // The end's rates in the second frame's order: the same particles' (a particle
+  // new there has none).
+  const std::vector<std::int64_t>& second = fluid.secondIndex();
+  std::int64_t count = 0;
+  for (std::int64_t j : second) count = std::max(count, j + 1);
+  std::vector<float> endRates(std::size_t(count), 0.0f);
+  std::vector<Vec3r> endX(std::size_t(count), Vec3r::Constant(Real(1e30)));
+  fluid.at(fluid.t1(), x, v);
+  for (std::size_t i = 0; i < second.size(); ++i)
+    if (second[i] >= 0 && i < rates.size()) {
+      endRates[std::size_t(second[i])] = rates[i];
+      endX[std::size_t(second[i])] = x[i];
+    }
+  frameRates(endX, std::move(endRates), atEnd);
+  return advance(fluid, atStart, atEnd, frame, particles, nextId);
+}
+
+IntervalStats WhitewaterSolver::advance(const FluidInterval& fluid, const FrameBirthRates& atStart,
+                                        const FrameBirthRates& atEnd, int frame, DiffuseParticles& particles,
+                                        std::uint32_t& nextId) {
   IntervalStats stats;
   stats.substeps = substepsFor(fluid);
   const double interval = fluid.t1() - fluid.t0();
   const double dt = interval / stats.substeps;
-  // Fluid particles that give birth at all this interval, in fluid order.
-  std::vector<std::uint32_t> sources;
-  for (std::size_t i = 0; i < rates.size(); ++i)
-    if (rates[i] > 0) sources.push_back(std::uint32_t(i));
+  const bool births = !atStart.field.empty() || !atEnd.field.empty();
+  if (births) {
+    // Sources that move with the water: a rate at one frame where the other has
+    // none (the particle's own rate, carried along its path).
+    std::vector<Vec3r>& x = mFluidX;
+    std::vector<Vec3r>& v = mFluidV;
+    const std::size_t n = fluid.size();
+    mMovingStart.assign(n, 0.0f);
+    mMovingEnd.assign(n, 0.0f);
+    fluid.at(fluid.t0(), x, v);
+    for (std::size_t i = 0; i < std::min(n, atStart.rate.size()); ++i)
+      if (atStart.rate[i] > 0 && atEnd.field.at(x[i]) == 0) mMovingStart[i] = atStart.rate[i];
+    fluid.at(fluid.t1(), x, v);
+    const std::vector<std::int64_t>& second = fluid.secondIndex();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (second[i] < 0 || std::size_t(second[i]) >= atEnd.rate.size()) continue;
+      const float rate = atEnd.rate[std::size_t(second[i])];
+      if (rate > 0 && atStart.field.at(x[i]) == 0) mMovingEnd[i] = rate;
+    }
+  }
+  std::vector<std::uint32_t>& sources = mSources;
   const std::vector<std::uint32_t>& fluidIds = fluid.ids();
   const Vec3r buoyancy = Real(-mSettings.buoyancy) * mGravity;
   const Vec3r still = Vec3r::Zero();
@@ -87,7 +134,7 @@ IntervalStats WhitewaterSolver::advance(const FluidInterval& fluid, const std::v
   particles.permute(zOrderPermutation(particles.position.data(), particles.size(), mH));
 
   std::vector<std::uint8_t> keep;
-  std::vector<std::uint32_t> births(sources.size() + 1);
+  std::vector<std::uint32_t> made;  // births per source, then their running sum
   for (int step = 0; step < stats.substeps; ++step) {
     const double t = fluid.t0() + step * dt;
     fluid.at(t, mFluidX, mFluidV);
@@ -129,19 +176,45 @@ IntervalStats WhitewaterSolver::advance(const FluidInterval& fluid, const std::v
     }
     particles.keepWhere(keep);
 
+    if (!births) continue;
+    // Each fluid particle's rate, the frames' blended linearly in time (at the
+    // sub-step's middle): a source that stays, that of the place the particle
+    // passes; one that moves, its own.
+    const double late = (t + 0.5 * dt - fluid.t0()) / interval;
+    mRateNow.resize(mFluidX.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mFluidX.size(), 4096), [&](const auto& range) {
+      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+        double early = mMovingStart[i], later = mMovingEnd[i];
+        const Vec3r middle = mFluidX[i] + Real(0.5 * dt) * mFluidV[i];
+        const float staysStart = atStart.field.at(middle);
+        if (staysStart > 0) {
+          const float staysEnd = atEnd.field.at(middle);
+          if (staysEnd > 0) {
+            early += double(staysStart);
+            later += double(staysEnd);
+          }
+        }
+        mRateNow[i] = float((1 - late) * early + late * later);
+      }
+    });
+    sources.clear();
+    for (std::size_t i = 0; i < mRateNow.size(); ++i)
+      if (mRateNow[i] > 0) sources.push_back(std::uint32_t(i));
+    made.resize(sources.size() + 1);
+
     // Births along each source's path over [t, t + dt] (eqs. 7-9).
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sources.size(), 4096), [&](const auto& range) {
       for (std::size_t s = range.begin(); s != range.end(); ++s) {
         const std::uint32_t i = sources[s];
-        const double expected = double(rates[i]) * dt;
+        const double expected = double(mRateNow[i]) * dt;
         Draws draws{drawKey(mSeed, kBirthStream, fluidIds[i], std::uint64_t(frame) * 4096 + std::uint64_t(step))};
         const double whole = std::floor(expected);
-        births[s] = std::uint32_t(whole) + (draws.uniform() < expected - whole ? 1u : 0u);
+        made[s] = std::uint32_t(whole) + (draws.uniform() < expected - whole ? 1u : 0u);
       }
     });
-    births[sources.size()] = 0;
-    std::exclusive_scan(births.begin(), births.end(), births.begin(), std::uint32_t(0));
-    const std::uint32_t newCount = births[sources.size()];
+    made[sources.size()] = 0;
+    std::exclusive_scan(made.begin(), made.end(), made.begin(), std::uint32_t(0));
+    const std::uint32_t newCount = made[sources.size()];
     if (std::uint64_t(nextId) + newCount > std::uint64_t(INT32_MAX))
       throw std::runtime_error("whitewater: more than 2^31 particles born in one run (lower rate_scale)");
     const std::size_t first = particles.size();
@@ -151,8 +224,8 @@ IntervalStats WhitewaterSolver::advance(const FluidInterval& fluid, const std::v
     particles.age.resize(first + newCount, 0.0f);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sources.size(), 1024), [&](const auto& range) {
       for (std::size_t s = range.begin(); s != range.end(); ++s) {
-        const std::uint32_t made = births[s + 1] - births[s];
-        if (made == 0) continue;
+        const std::uint32_t count = made[s + 1] - made[s];
+        if (count == 0) continue;
         const std::uint32_t i = sources[s];
         const Vec3r& x = mFluidX[i];
         const Vec3r& v = mFluidV[i];
@@ -164,14 +237,14 @@ IntervalStats WhitewaterSolver::advance(const FluidInterval& fluid, const std::v
         const Vec3r e2 = along.cross(e1);
         Draws draws{drawKey(mSeed, kBirthStream, fluidIds[i], std::uint64_t(frame) * 4096 + std::uint64_t(step))};
         draws.uniform();  // the count's draw
-        for (std::uint32_t k = 0; k < made; ++k) {
-          const std::size_t out = first + births[s] + k;
+        for (std::uint32_t k = 0; k < count; ++k) {
+          const std::size_t out = first + made[s] + k;
           const Real r = mRadius * Real(std::sqrt(draws.uniform()));
           const Real theta = Real(2 * M_PI * draws.uniform());
           const Real along_ = Real(draws.uniform()) * speed * Real(dt);
           particles.position[out] = x + r * std::cos(theta) * e1 + r * std::sin(theta) * e2 + along_ * along;
           particles.velocity[out] = v;
-          particles.id[out] = nextId + births[s] + k;
+          particles.id[out] = nextId + made[s] + k;
           particles.age[out] = 0.0f;
         }
       }

@@ -54,6 +54,8 @@ public:
     computePotentials(mX, mV, mNeighbors, h, mPotentials, energyFloor);
     return mPotentials;
   }
+  /// The positions of the last frame given to of().
+  const std::vector<Vec3r>& positions() const { return mX; }
 
 private:
   std::vector<Vec3r> mX, mV;
@@ -251,6 +253,8 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
     if (writing.valid()) writing.get();  // rethrows a failed write
   };
   FramePotentials framePotentials;
+  FrameBirthRates startField, endField;  // of frames fieldFrame - 1 and fieldFrame
+  int fieldFrame = -1;
   FluidInterval interval;
   WhitewaterFrame state;  // at frame stateFrame
   int stateFrame = -1;
@@ -285,16 +289,26 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
       if (!(t1 > t0))
         throw InputError(caches.at(frame).string() + ": its time is not after the frame before's");
       const auto potentialStart = std::chrono::steady_clock::now();
-      // Only the particles fast enough to give birth need their sums.
-      const FluidPotentials& potentials =
-          framePotentials.of(*previousCache, h, label, float(limits.kineticEnergy[0]));
-      const std::vector<float> rates = birthRates(potentials, limits, settings.trappedAirRate,
-                                                  settings.waveCrestRate, birthRateScale(settings, spacing));
+      // The birth rates of the interval's two frames (WhitewaterSolver.h); only
+      // the particles fast enough to give birth need their sums. The end's are
+      // the next interval's start.
+      const auto rateFieldOf = [&](const ParticleFrame& frameCache, const std::string& frameLabel,
+                                   FrameBirthRates& out) {
+        const FluidPotentials& potentials = framePotentials.of(frameCache, h, frameLabel, float(limits.kineticEnergy[0]));
+        solver.frameRates(framePotentials.positions(),
+                          birthRates(potentials, limits, settings.trappedAirRate, settings.waveCrestRate,
+                                     birthRateScale(settings, spacing)),
+                          out);
+      };
+      if (fieldFrame != frame - 1) rateFieldOf(*previousCache, label, endField);
+      std::swap(startField, endField);
+      rateFieldOf(cache, caches.at(frame).string(), endField);
+      fieldFrame = frame;
       frameReport.potentialSeconds = secondsSince(potentialStart);
       interval.assign(*previousCache, cache, t0, t1, label);
       next.particles = std::move(state.particles);
       next.nextId = state.nextId;
-      frameReport.stats = solver.advance(interval, rates, frame - 1, next.particles, next.nextId);
+      frameReport.stats = solver.advance(interval, startField, endField, frame - 1, next.particles, next.nextId);
     }
     next.type = solver.classify(next.particles, cache.position);
     // The file is the state: the next frame goes on from the positions as the
