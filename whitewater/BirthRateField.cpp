@@ -44,10 +44,9 @@ void BirthRateField::build(const Vec3r* positions, const float* rates, std::size
       mHigh = mHigh.cwiseMax(positions[i]);
     }
   // Grown to whole cells (and a cell more, for rounding): a point outside has no rate.
-  const Real cell = cellSize;
   for (int axis = 0; axis < 3; ++axis) {
-    mLow[axis] = (std::floor(mLow[axis] / cell) - 1) * cell;
-    mHigh[axis] = (std::floor(mHigh[axis] / cell) + 2) * cell;
+    mLow[axis] = (std::floor(mLow[axis] / cellSize) - 1) * cellSize;
+    mHigh[axis] = (std::floor(mHigh[axis] / cellSize) + 2) * cellSize;
   }
   // Every particle in a cell with a rate counts, a rate or not: the mean is per particle there.
   for (std::size_t i = 0; i < count; ++i)
