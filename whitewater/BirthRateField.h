@@ -31,8 +31,6 @@ public:
 
   /// No particle has a rate: every lookup gives 0.
   bool empty() const { return mUsed == 0; }
-  /// Cells with a rate.
-  std::size_t cellCount() const { return mUsed; }
 
   /// The mean rate of the particles that were in the cell of x (0 where none had one).
   float at(const Vec3r& x) const {

@@ -44,6 +44,10 @@ public:
   const std::vector<std::uint32_t>& ids() const { return mIds; }
   /// Where each particle is in the second frame's order (-1: gone from it).
   const std::vector<std::int64_t>& secondIndex() const { return mSecondIndex; }
+  /// The particles' positions in the first frame, and in the second (where
+  /// secondIndex() >= 0): what at(t0()) and at(t1()) give there.
+  const std::vector<Vec3r>& startPositions() const { return mX0; }
+  const std::vector<Vec3r>& endPositions() const { return mX1; }
 
 private:
   double mT0 = 0, mT1 = 1, mMaxSpeed = 0;

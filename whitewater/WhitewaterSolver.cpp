@@ -77,21 +77,19 @@ void WhitewaterSolver::frameRates(const std::vector<Vec3r>& positions, std::vect
 IntervalStats WhitewaterSolver::advance(const FluidInterval& fluid, const std::vector<float>& rates, int frame,
                                         DiffuseParticles& particles, std::uint32_t& nextId) {
   FrameBirthRates atStart, atEnd;
-  std::vector<Vec3r> x, v;
-  fluid.at(fluid.t0(), x, v);
-  frameRates(x, rates, atStart);
+  frameRates(fluid.startPositions(), rates, atStart);
   // The end's rates in the second frame's order: the same particles' (a particle
   // new there has none).
   const std::vector<std::int64_t>& second = fluid.secondIndex();
+  const std::vector<Vec3r>& endPositions = fluid.endPositions();
   std::int64_t count = 0;
   for (std::int64_t j : second) count = std::max(count, j + 1);
   std::vector<float> endRates(std::size_t(count), 0.0f);
   std::vector<Vec3r> endX(std::size_t(count), Vec3r::Constant(Real(1e30)));
-  fluid.at(fluid.t1(), x, v);
   for (std::size_t i = 0; i < second.size(); ++i)
     if (second[i] >= 0 && i < rates.size()) {
       endRates[std::size_t(second[i])] = rates[i];
-      endX[std::size_t(second[i])] = x[i];
+      endX[std::size_t(second[i])] = endPositions[i];
     }
   frameRates(endX, std::move(endRates), atEnd);
   return advance(fluid, atStart, atEnd, frame, particles, nextId);
@@ -108,20 +106,18 @@ IntervalStats WhitewaterSolver::advance(const FluidInterval& fluid, const FrameB
   if (births) {
     // Sources that move with the water: a rate at one frame where the other has
     // none (the particle's own rate, carried along its path).
-    std::vector<Vec3r>& x = mFluidX;
-    std::vector<Vec3r>& v = mFluidV;
+    const std::vector<Vec3r>& start = fluid.startPositions();
+    const std::vector<Vec3r>& end = fluid.endPositions();
     const std::size_t n = fluid.size();
     mMovingStart.assign(n, 0.0f);
     mMovingEnd.assign(n, 0.0f);
-    fluid.at(fluid.t0(), x, v);
     for (std::size_t i = 0; i < std::min(n, atStart.rate.size()); ++i)
-      if (atStart.rate[i] > 0 && atEnd.field.at(x[i]) == 0) mMovingStart[i] = atStart.rate[i];
-    fluid.at(fluid.t1(), x, v);
+      if (atStart.rate[i] > 0 && atEnd.field.at(start[i]) == 0) mMovingStart[i] = atStart.rate[i];
     const std::vector<std::int64_t>& second = fluid.secondIndex();
     for (std::size_t i = 0; i < n; ++i) {
       if (second[i] < 0 || std::size_t(second[i]) >= atEnd.rate.size()) continue;
       const float rate = atEnd.rate[std::size_t(second[i])];
-      if (rate > 0 && atStart.field.at(x[i]) == 0) mMovingEnd[i] = rate;
+      if (rate > 0 && atStart.field.at(end[i]) == 0) mMovingEnd[i] = rate;
     }
   }
   std::vector<std::uint32_t>& sources = mSources;

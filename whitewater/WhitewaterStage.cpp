@@ -15,7 +15,6 @@
 
 #include <algorithm>
 #include <climits>
-#include <cmath>
 #include <cstdio>
 #include <chrono>
 #include <future>
@@ -90,10 +89,14 @@ void keepFreedMemory() {
   ::mallopt(M_TRIM_THRESHOLD, INT_MAX);
 }
 
-double birthRateScale(const scene::WhitewaterSettings& settings, double spacing) {
-  if (settings.ratesPer == "particle") return settings.rateScale;
+double spacingRateFactor(const scene::WhitewaterSettings& settings, double spacing) {
+  if (settings.ratesPer == "particle") return 1.0;
   const double ratio = spacing / settings.referenceSpacing;
-  return settings.rateScale * ratio * ratio * (settings.ratesPer == "volume" ? ratio : 1.0);
+  return ratio * ratio * (settings.ratesPer == "volume" ? ratio : 1.0);
+}
+
+double birthRateScale(const scene::WhitewaterSettings& settings, double spacing) {
+  return settings.rateScale * spacingRateFactor(settings, spacing);
 }
 
 std::string whitewaterHash(const WhitewaterStageOptions& options, const std::string& bakeHash) {
@@ -153,7 +156,7 @@ WhitewaterRunReport runWhitewater(const OutputLayout& layout, const WhitewaterSt
     char line[240];
     std::snprintf(line, sizeof line, "whitewater: rates per %s: x %.6g (spacing %.6g m against the reference %.6g m, %s)",
                   volume ? "volume of water" : "area of water surface",
-                  std::pow(spacing / options.settings.referenceSpacing, volume ? 3 : 2), spacing,
+                  spacingRateFactor(options.settings, spacing), spacing,
                   options.settings.referenceSpacing, volume ? "cubed" : "squared");
     say(line);
   }

@@ -76,11 +76,14 @@ struct WhitewaterRunReport {
 /// cost page faults worth about a tenth of its time (measured on the bench splash).
 void keepFreedMemory();
 
-/// The factor on both birth rates (eq. 7) for a bake at particle spacing
-/// `spacing`: rate_scale, times (spacing / reference_spacing)^2 for rates per
-/// area of water surface or ^3 per volume of water, so that a finer bake, with
-/// more particles on the same surface or in the same water, makes as many
-/// births a second from the same potentials.
+/// What a bake at particle spacing `spacing` gives each particle of the rates:
+/// (spacing / reference_spacing)^2 for rates per area of water surface, ^3 per
+/// volume of water (so that a finer bake, with more particles on the same
+/// surface or in the same water, makes as many births a second from the same
+/// potentials), 1 per particle.
+double spacingRateFactor(const scene::WhitewaterSettings& settings, double spacing);
+
+/// The factor on both birth rates (eq. 7): rate_scale times spacingRateFactor().
 double birthRateScale(const scene::WhitewaterSettings& settings, double spacing);
 
 /// The input hash of the stage: its settings, gravity and domain, chained on
