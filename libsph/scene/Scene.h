@@ -87,7 +87,7 @@ struct Solver {
   std::int64_t maxIterations = 300;  ///< dfsph (SolverSettings.h)
   std::string preconditioner = "two_level";  ///< dfsph: two_level, jacobi
   double particleToleranceShare = 0;        ///< dfsph (SolverSettings.h); 0: by preconditioner
-  double supportFactor = 2.0;        ///< support radius h = support_factor * spacing
+  double supportFactor = 0;          ///< support radius h = support_factor * spacing; 0: the solver's own
   double cfl = 0.4;
   double dtMin = 1e-6;
   double dtMax = 5e-3;

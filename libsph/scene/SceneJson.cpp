@@ -6,6 +6,7 @@
 #include "libsph/io/AtomicFile.h"
 #include "libsph/scene/Manifest.h"
 #include "libsph/scene/SceneSchema.h"
+#include "libsph/solver/SolverSettings.h"
 
 #include <algorithm>
 #include <cmath>
@@ -772,7 +773,8 @@ Scene parseSceneIn(const json& value, const Context& context) {
     s.maxIterations = solver.integer("max_iterations", s.maxIterations, 1);
     s.preconditioner = solver.choice("preconditioner", s.preconditioner, {"two_level", "jacobi"});
     s.particleToleranceShare = solver.numberIn("particle_tolerance_share", s.particleToleranceShare, 0, 1e3);
-    s.supportFactor = solver.numberIn("support_factor", s.supportFactor, 1.0, 4.0);
+    s.supportFactor =
+        solver.numberIn("support_factor", s.supportFactor > 0 ? s.supportFactor : defaultSupportFactor(s.type), 1.0, 4.0);
     s.cfl = solver.numberIn("cfl", s.cfl, 1e-3, 1.0);
     s.dtMin = solver.number("dt_min", s.dtMin, Range::Positive);
     s.dtMax = solver.number("dt_max", s.dtMax, Range::Positive);
@@ -790,6 +792,8 @@ Scene parseSceneIn(const json& value, const Context& context) {
     s.kappa = solver.numberIn("kappa", s.kappa, 0.5, 2.0);
     solver.finish();
   }
+  // The solver's own support when the scene gives none (also without a solver block).
+  if (!(scene.solver.supportFactor > 0)) scene.solver.supportFactor = defaultSupportFactor(scene.solver.type);
 
   if (const json* boundariesJson = top.find("boundaries")) {
     ObjectReader boundaries(context, *boundariesJson, "boundaries");
@@ -1228,15 +1232,22 @@ Scene loadSceneText(const std::string& text, const std::string& label, const fs:
   // 4. Other overrides on the default-filled scene. An object set whole (say
   //    `whitewater={}`) is filled with its defaults at once, so that a later
   //    --set can reach its keys (`whitewater.rate_scale=2`).
+  //    The support factor filled in from the solver type follows a --set of the type,
+  //    unless the file, its preset or a --set gives it.
   bool changed = false;
+  bool supportGiven = hasJsonPath(raw, "solver.support_factor");
   json full = sceneToJson(scene);
   for (const std::string& text : overrides) {
     const auto [path, value] = splitOverride(text);
     if (path == "size") continue;
     setJsonPath(full, path, value, "--set", true);
     changed = true;
+    if (path == "solver.support_factor") supportGiven = true;
+    if (path == "solver" && hasJsonPath(full, "solver.support_factor")) supportGiven = true;
     if (!value.empty() && value.front() == '{') full = sceneToJson(parseScene(full, label, baseDir));
   }
+  if (changed && !supportGiven && full.contains("solver") && full["solver"].is_object())
+    full["solver"].erase("support_factor");
   if (changed) scene = parseScene(full, label, baseDir);
   return scene;
 }

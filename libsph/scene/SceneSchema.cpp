@@ -100,7 +100,7 @@ const std::vector<KeyDoc>& keyDocs() {
       {"solver.max_iterations", "", "DFSPH: most sweeps of each solve per step."},
       {"solver.particle_tolerance_share", "", "DFSPH constant-density solve: the largest predicted compression of any one particle, as a share of density_tolerance (the mean alone is diluted by depth); 0: 0.2 with `two_level`, 0.02 with `jacobi`, the largest that hold a 200-layer column at rest (docs/dfsph-deep-water.md, \"Two levels\")."},
       {"solver.preconditioner", "", "DFSPH constant-density solve: `two_level` (Jacobi plus a coarse correction on cells of 2 support radii), or `jacobi` alone. With their default per-particle bounds, `two_level` bakes the 59.5 k dam break 24 % faster and a resting 200-layer column 3.3x faster, with the same Martin & Moyce errors (docs/dfsph-deep-water.md, \"Two levels\"). Over MPI ranks the solve is `jacobi`."},
-      {"solver.support_factor", "", "Support radius h = support_factor x spacing."},
+      {"solver.support_factor", "", "Support radius h = support_factor x spacing. WCSPH's 2.15: at 2 its resting Wendland C2 lattice is rigid in shear, and waves run 15 % short of their period (docs/solvers.md, \"Gravity waves\").", "2.15 (wcsph), 2 (dfsph)"},
       {"solver.cfl", "", "CFL factor: dt = cfl h / (c + v_max), also bounded by viscosity and force."},
       {"solver.dt_min", "s", "Smallest time step."},
       {"solver.dt_max", "s", "Largest time step; at least dt_min."},

@@ -136,6 +136,8 @@ void readArray(std::istream& in, std::vector<T>& values, std::uint64_t expected)
 
 Simulation::Simulation(const SimulationSettings& settings) : mSettings(settings) {
   validateSettings(mSettings, "settings");
+  if (mSettings.solver.supportRadiusFactor == 0)
+    mSettings.solver.supportRadiusFactor = Real(defaultSupportFactor(mSettings.solver.type));
   try {
     mTimeStep = makeTimeStep(mSettings.solver.type);
   } catch (const std::invalid_argument&) {

@@ -21,8 +21,8 @@ void validateSettings(const SimulationSettings& s, const std::string& context) {
   require(s.fluid.spacing > 0 && std::isfinite(s.fluid.spacing), context, "fluid.spacing", "> 0", s.fluid.spacing);
   require(s.fluid.restDensity > 0, context, "fluid.density", "> 0", s.fluid.restDensity);
   require(s.fluid.viscosity >= 0, context, "fluid.viscosity", ">= 0", s.fluid.viscosity);
-  require(s.solver.supportRadiusFactor >= 1 && s.solver.supportRadiusFactor <= 4, context,
-          "solver.support_radius_factor", "in [1, 4]", s.solver.supportRadiusFactor);
+  require(s.solver.supportRadiusFactor == 0 || (s.solver.supportRadiusFactor >= 1 && s.solver.supportRadiusFactor <= 4),
+          context, "solver.support_radius_factor", "0 (the solver's own) or in [1, 4]", s.solver.supportRadiusFactor);
   require(s.solver.stiffness >= 0, context, "solver.stiffness", ">= 0", s.solver.stiffness);
   require(s.solver.taitExponent >= 1, context, "solver.tait_exponent", ">= 1", s.solver.taitExponent);
   require(s.solver.artificialViscosity >= 0, context, "solver.artificial_viscosity", ">= 0",

@@ -84,6 +84,30 @@ TEST(SceneJson, DefaultsAreFilledAndWritten) {
   EXPECT_EQ(written["gravity"][2].get<double>(), -9.81);
 }
 
+// The support factor is the solver's own unless the scene gives one: WCSPH 2.15 spacings
+// (at 2 its resting lattice is rigid in shear: docs/solvers.md, "Gravity waves"), DFSPH 2.
+TEST(SceneJson, SupportFactorDefaultsToTheSolversOwn) {
+  const fs::path file = tempDir("support") / "scene.json";
+  writeTextAtomically(file, kMinimal);
+  const Scene wcsph = loadScene(file);
+  EXPECT_DOUBLE_EQ(wcsph.solver.supportFactor, 2.15);
+  EXPECT_DOUBLE_EQ(sceneToJson(wcsph)["solver"]["support_factor"].get<double>(), 2.15);
+  EXPECT_DOUBLE_EQ(loadScene(file, {"solver.type=dfsph"}).solver.supportFactor, 2.0);
+  EXPECT_DOUBLE_EQ(loadScene(file, {"solver.support_factor=2"}).solver.supportFactor, 2.0);
+  EXPECT_DOUBLE_EQ(loadScene(file, {"solver.type=dfsph", "solver.support_factor=2.5"}).solver.supportFactor, 2.5);
+  EXPECT_DOUBLE_EQ(loadScene(file, {"solver.support_factor=2.5", "solver.type=dfsph"}).solver.supportFactor, 2.5);
+  EXPECT_DOUBLE_EQ(loadScene(file, {R"(solver={"type": "dfsph"})", "whitewater={}"}).solver.supportFactor, 2.0);
+  // A file that gives the support keeps it whatever the type.
+  const fs::path given = tempDir("support-given") / "scene.json";
+  writeTextAtomically(given, R"({"name": "t", "solver": {"support_factor": 2.15},
+    "fluid": {"blocks": [{"min": [0,0,0], "max": [0.1,0.1,0.1]}]}})");
+  EXPECT_DOUBLE_EQ(loadScene(given, {"solver.type=dfsph"}).solver.supportFactor, 2.15);
+  // The filled-in scene reads back the same (a bake's OUT/scene.json keeps its support).
+  const fs::path written = tempDir("support-written") / "scene.json";
+  writeTextAtomically(written, sceneToJson(loadScene(file, {"solver.type=dfsph"})).dump(2));
+  EXPECT_DOUBLE_EQ(readResolvedScene(written).solver.supportFactor, 2.0);
+}
+
 TEST(SceneJson, PresetsAndSetOverrides) {
   const fs::path file = tempDir("presets") / "scene.json";
   writeTextAtomically(file, R"({"name": "p", "size": "production",

@@ -31,6 +31,19 @@ TEST(EquationOfState, LinearTaitAndClamping) {
   EXPECT_NEAR((tait(1000.01f) - tait(999.99f)) / 0.02, 100, 1.0);
 }
 
+// A support factor of 0 (the default) is the solver's own: WCSPH 2.15 spacings, DFSPH 2.
+TEST(Simulation, SupportRadiusIsTheSolversOwnUnlessSet) {
+  SimulationSettings settings;
+  settings.fluid.spacing = Real(0.01);
+  EXPECT_FLOAT_EQ(Simulation(settings).supportRadius(), Real(0.0215));
+  settings.solver.type = "dfsph";
+  EXPECT_FLOAT_EQ(Simulation(settings).supportRadius(), Real(0.02));
+  settings.solver.supportRadiusFactor = Real(2.5);
+  EXPECT_FLOAT_EQ(Simulation(settings).supportRadius(), Real(0.025));
+  settings.solver.supportRadiusFactor = Real(0.5);
+  EXPECT_THROW(Simulation{settings}, InputError);
+}
+
 TEST(Simulation, RestoredRunIsBitIdenticalToAnUninterruptedOne) {
   const SimulationSettings settings = damBreakSettings(kMartinMoyceA / 10);
   auto reference = makeDamBreak(settings);

@@ -205,10 +205,12 @@ Sloshing slosh(const std::string& solver, double artificialViscosity) {
 
 } // namespace
 
-/// A solver and the artificial viscosity its shipped scenes use (DFSPH's flume: none).
+/// A solver and the artificial viscosity its shipped scenes use (DFSPH's flume: none), and
+/// the least amplitude it keeps per period today (a guard, not the target).
 struct WaveCase {
   std::string solver;
   double artificialViscosity;
+  double keptGuard = 0;
 };
 
 class StandingWave : public ::testing::TestWithParam<WaveCase> {};
@@ -216,21 +218,26 @@ class StandingWave : public ::testing::TestWithParam<WaveCase> {};
 std::string waveCaseName(const ::testing::TestParamInfo<WaveCase>& info) { return info.param.solver; }
 
 #ifndef CASCADE_KNOWN_FAILURES
-// DFSPH at 1 cm (10 layers deep, 6 per wave height), measured: period -2.4 %, amplitude
-// kept per period 0.81 (0.89 at 5 mm, 0.91 at 2.5 mm). The damping bound guards today's
-// value; the target (below) is the flume's.
+// Measured at 1 cm (10 layers deep, 6 per wave height):
+// - DFSPH: period -2.5 %, amplitude kept per period 0.81 (0.89 at 5 mm, 0.91 at 2.5 mm);
+// - WCSPH (Wendland C2 at 2.15 spacings, artificial viscosity 0.1): period +0.1 %, kept
+//   0.39. At 2 spacings its resting lattice is rigid in shear and the period is 14.8 %
+//   short (14.5 % at 5 mm, 14.1 % at 2.5 mm; the same with any artificial viscosity or
+//   amplitude): this test fails there.
+// The damping bounds guard today's values; the target (below) is the flume's.
 TEST_P(StandingWave, OscillatesAtTheLinearPeriod) {
   const Sloshing s = slosh(GetParam().solver, GetParam().artificialViscosity);
   ASSERT_GE(s.extremes, 4);
   EXPECT_NEAR(s.period / s.linearPeriod, 1.0, 0.05);
-  EXPECT_GT(s.keptPerPeriod, 0.75);
+  EXPECT_GT(s.keptPerPeriod, GetParam().keptGuard);
 }
-INSTANTIATE_TEST_SUITE_P(Dfsph, StandingWave, ::testing::Values(WaveCase{"dfsph", 0.0}), waveCaseName);
+INSTANTIATE_TEST_SUITE_P(BothSolvers, StandingWave,
+                         ::testing::Values(WaveCase{"dfsph", 0.0, 0.75}, WaveCase{"wcsph", 0.1, 0.3}), waveCaseName);
 #else
 // The target: a wave that keeps 97 % of its amplitude per period keeps 96.5 % per
 // wavelength travelling (kd = 1), which the flume needs to stay within 10 % of Biesel
-// three wavelengths out. DFSPH keeps 0.81 per period at 1 cm; WCSPH (Wendland C2 at two
-// spacings, artificial viscosity 0.1) 0.46, with the period 15 % short.
+// three wavelengths out. DFSPH keeps 0.81 per period at 1 cm; WCSPH (artificial
+// viscosity 0.1) 0.39.
 TEST_P(StandingWave, KeepsItsAmplitude) {
   const Sloshing s = slosh(GetParam().solver, GetParam().artificialViscosity);
   ASSERT_GE(s.extremes, 4);
