@@ -21,7 +21,11 @@
 // For studies: CASCADE_WAVE_SPACING, _AMPLITUDE, _PERIODS, _WIDTH (slab, in spacings),
 // _FROM_SURFACE (start at rest with the surface raised), _ALPHA (artificial viscosity),
 // _VISCOSITY (Pa s), _SUPPORT (support radius over spacing), _TOLERANCE,
-// _DIVERGENCE_TOLERANCE, _ITERATIONS, _MAX_DT.
+// _DIVERGENCE_TOLERANCE, _ITERATIONS, _MAX_DT; WCSPH: _CONTINUITY (delta: continuity density),
+// _APPROACHING_ONLY (artificial viscosity), _CUBIC / _WENDLAND (kernels), _NO_SURFACE_LAYER,
+// _NO_TYPE1 (no repulsion particles), _SAMPLE_GAP (of r0), _R0 (SEED (11)'s r0 in spacings).
+// Verbose runs print KE+PE, the kinetic and gravitational energy per unit particle mass
+// against the start (WCSPH's elastic energy not counted).
 #include "TestEnvironment.h"
 
 #include "libsph/boundary/BoxBoundary.h"
@@ -85,7 +89,8 @@ struct Sloshing {
   int extremes = 0;
 };
 
-Sloshing slosh(const std::string& solver, double artificialViscosity) {
+/// r0: SEED (11)'s repulsion radius in spacings (0: the default, where the resting wall layer sits).
+Sloshing slosh(const std::string& solver, double artificialViscosity, double r0 = 0) {
   const double spacing = envOr("CASCADE_WAVE_SPACING", 0.01);
   const double length = 0.3, depth = 0.1, width = envOr("CASCADE_WAVE_WIDTH", 2) * spacing;
   const double a = envOr("CASCADE_WAVE_AMPLITUDE", 0.01);
@@ -106,6 +111,17 @@ Sloshing slosh(const std::string& solver, double artificialViscosity) {
   if (const char* v = std::getenv("CASCADE_WAVE_ITERATIONS")) settings.solver.maxIterations = std::atoi(v);
   if (const char* v = std::getenv("CASCADE_WAVE_MAX_DT")) settings.solver.maxTimeStep = Real(std::atof(v));
   if (const char* v = std::getenv("CASCADE_WAVE_SUPPORT")) settings.solver.supportRadiusFactor = Real(std::atof(v));
+  if (const char* v = std::getenv("CASCADE_WAVE_CONTINUITY")) {
+    settings.solver.density = DensityEvolution::Continuity;
+    settings.solver.densityDiffusion = Real(std::atof(v));
+  }
+  if (std::getenv("CASCADE_WAVE_APPROACHING_ONLY")) settings.solver.artificialViscosityAllPairs = false;
+  if (std::getenv("CASCADE_WAVE_CUBIC")) settings.solver.kernels = KernelPair::CubicSpline;
+  if (std::getenv("CASCADE_WAVE_WENDLAND")) settings.solver.kernels = KernelPair::WendlandC2;
+  if (std::getenv("CASCADE_WAVE_NO_SURFACE_LAYER")) settings.solver.surfaceLayerPressure = false;
+  if (std::getenv("CASCADE_WAVE_NO_TYPE1")) settings.boundary.repulsionParticles = false;
+  if (const char* v = std::getenv("CASCADE_WAVE_SAMPLE_GAP")) settings.boundary.sampleGap = Real(std::atof(v));
+  settings.boundary.repulsionRadius = Real(envOr("CASCADE_WAVE_R0", r0) * spacing);
   Simulation sim(settings);
   sim.addBoundary(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(Real(length), Real(width), Real(3 * depth))));
   // The mode's velocity per unit amplitude at a point.
@@ -148,6 +164,8 @@ Sloshing slosh(const std::string& solver, double artificialViscosity) {
     return sum / double(p.size());
   };
 
+  double potential0 = 0;
+  for (std::size_t i = 0; i < sim.particles().size(); ++i) potential0 += g * double(sim.particles().position[i].z());
   const int periods = int(envOr("CASCADE_WAVE_PERIODS", 3));
   const double end = periods * result.linearPeriod, sample = result.linearPeriod / 200;
   Oscillation mode1, mean;
@@ -157,7 +175,8 @@ Sloshing slosh(const std::string& solver, double artificialViscosity) {
     const double A = amplitude(), u = meanVelocity();
     if (std::getenv("CASCADE_TEST_VERBOSE")) {
       const Particles& p = sim.particles();
-      double kinetic = 0, modeKinetic = 0, top = 0, wall = 0, middle = 0;
+      double kinetic = 0, modeKinetic = 0, top = 0, wall = 0, middle = 0, potential = 0;
+      for (std::size_t i = 0; i < p.size(); ++i) potential += g * double(p.position[i].z());
       for (std::size_t i = 0; i < p.size(); ++i) {
         kinetic += 0.5 * p.velocity[i].cast<double>().squaredNorm();
         modeKinetic += 0.5 * A * A * mode(p.position[i]).squaredNorm();
@@ -182,7 +201,7 @@ Sloshing slosh(const std::string& solver, double artificialViscosity) {
       for (std::size_t c = 0; c < sum.size(); ++c)
         if (count[c] > 0) large += 0.5 * sum[c].squaredNorm() / count[c];
       std::cout << "  t " << t << " A " << A << " KE " << kinetic << " mode KE " << modeKinetic << " rest: top "
-                << top << " walls " << wall << " middle " << middle << " large-scale " << large << "\n";
+                << top << " walls " << wall << " middle " << middle << " large-scale " << large << " KE+PE " << kinetic + potential - potential0 << "\n";
     }
     mode1.add(t, A);
     mean.add(t, u);
@@ -195,7 +214,7 @@ Sloshing slosh(const std::string& solver, double artificialViscosity) {
   result.keptPerWavelength = std::pow(result.keptPerPeriod, 1 / groupOverPhase);
   std::cout << "standing wave (" << solver << ", spacing " << spacing << ", a " << a << ", kd " << kd
             << (fromSurface ? ", from the raised surface" : ", from the mode's velocity") << ", "
-            << sim.particles().size() << " particles, " << sim.stepCount() << " steps): period " << result.period
+            << sim.particles().size() << " particles, " << sim.stepCount() << " steps, " << sim.keptOutCount() << " kept out of walls): period " << result.period
             << " s (linear " << result.linearPeriod << " s, " << 100 * (result.period / result.linearPeriod - 1)
             << " %), amplitude kept per period " << result.keptPerPeriod << " (mean velocity: "
             << result.meanVelocityKept << "; a progressive wave: per wavelength " << result.keptPerWavelength
@@ -211,11 +230,15 @@ struct WaveCase {
   std::string solver;
   double artificialViscosity;
   double keptGuard = 0;
+  double repulsionRadius = 0;  ///< r0 in spacings (0: the default)
+  std::string name;
 };
 
 class StandingWave : public ::testing::TestWithParam<WaveCase> {};
 
-std::string waveCaseName(const ::testing::TestParamInfo<WaveCase>& info) { return info.param.solver; }
+std::string waveCaseName(const ::testing::TestParamInfo<WaveCase>& info) {
+  return info.param.name.empty() ? info.param.solver : info.param.name;
+}
 
 #ifndef CASCADE_KNOWN_FAILURES
 // Measured at 1 cm (10 layers deep, 6 per wave height):
@@ -224,15 +247,21 @@ std::string waveCaseName(const ::testing::TestParamInfo<WaveCase>& info) { retur
 //   0.39. At 2 spacings its resting lattice is rigid in shear and the period is 14.8 %
 //   short (14.5 % at 5 mm, 14.1 % at 2.5 mm; the same with any artificial viscosity or
 //   amplitude): this test fails there.
+// - WCSPH with r0 of SEED (11) at 0.4 spacing, inside the resting wall layer's distance
+//   (the setting docs/solvers.md gives for waves): kept 0.59 (0.75 at 5 mm). With the
+//   default r0 the layer's contact with the repulsion feeds noise that the artificial
+//   viscosity dissipates; it keeps 0.39, and this case fails.
 // The damping bounds guard today's values; the target (below) is the flume's.
 TEST_P(StandingWave, OscillatesAtTheLinearPeriod) {
-  const Sloshing s = slosh(GetParam().solver, GetParam().artificialViscosity);
+  const Sloshing s = slosh(GetParam().solver, GetParam().artificialViscosity, GetParam().repulsionRadius);
   ASSERT_GE(s.extremes, 4);
   EXPECT_NEAR(s.period / s.linearPeriod, 1.0, 0.05);
   EXPECT_GT(s.keptPerPeriod, GetParam().keptGuard);
 }
 INSTANTIATE_TEST_SUITE_P(BothSolvers, StandingWave,
-                         ::testing::Values(WaveCase{"dfsph", 0.0, 0.75}, WaveCase{"wcsph", 0.1, 0.3}), waveCaseName);
+                         ::testing::Values(WaveCase{"dfsph", 0.0, 0.75, 0, ""}, WaveCase{"wcsph", 0.1, 0.3, 0, ""},
+                                           WaveCase{"wcsph", 0.1, 0.5, 0.4, "wcsph_r0_inside_the_wall_layer"}),
+                         waveCaseName);
 #else
 // The target: a wave that keeps 97 % of its amplitude per period keeps 96.5 % per
 // wavelength travelling (kd = 1), which the flume needs to stay within 10 % of Biesel
@@ -245,7 +274,7 @@ TEST_P(StandingWave, KeepsItsAmplitude) {
   EXPECT_GT(s.keptPerPeriod, 0.97);
 }
 INSTANTIATE_TEST_SUITE_P(BothSolvers, StandingWave,
-                         ::testing::Values(WaveCase{"dfsph", 0.0}, WaveCase{"wcsph", 0.1}), waveCaseName);
+                         ::testing::Values(WaveCase{"dfsph", 0.0, 0, 0, ""}, WaveCase{"wcsph", 0.1, 0, 0, ""}), waveCaseName);
 #endif
 
 } // namespace cascade::test

@@ -55,6 +55,8 @@
 // default 0.175), CASCADE_ACCURACY_DENSITY=summation|continuity (WCSPH's density; the
 // Lobovsky scene's own is continuity), CASCADE_ACCURACY_DENSITY_DIFFUSION (delta),
 // CASCADE_ACCURACY_CLAMP=0|1 (WCSPH's negative-pressure clamp; dam break and tank),
+// CASCADE_ACCURACY_REPULSION=0|1 (type I boundary particles, SEED (11); dam break and tank),
+// CASCADE_ACCURACY_REPULSION_RADIUS (r0 of SEED (11) in spacings; dam break and tank),
 // CASCADE_ACCURACY_LOBOVSKY_SET="key=value;key=value" (scene overrides of the Lobovsky case).
 // The plots: the dam break's error against wall time (--plot, or next to the JSON), and
 // the Lobovsky sensor against the band, raw and 5 ms averaged ("-lobovsky" added to the name).
@@ -158,6 +160,10 @@ SimulationSettings settingsFor(const std::string& solver, double spacing) {
     settings.solver.densityDiffusion = Real(std::stod(v));
   if (const std::string v = environmentChoice("CASCADE_ACCURACY_CLAMP", {"0", "1"}); !v.empty())
     settings.solver.clampNegativePressure = v == "1";
+  if (const std::string v = environmentChoice("CASCADE_ACCURACY_REPULSION", {"0", "1"}); !v.empty())
+    settings.boundary.repulsionParticles = v == "1";
+  if (const char* v = std::getenv("CASCADE_ACCURACY_REPULSION_RADIUS"); v && *v)
+    settings.boundary.repulsionRadius = Real(std::stod(v) * spacing);
   if (const std::string v = environmentChoice("CASCADE_ACCURACY_SLIP", {"no", "free", "laminar"}); !v.empty())
     settings.boundary.slip = v == "no" ? MirrorSlip::NoSlip : v == "free" ? MirrorSlip::FreeSlip : MirrorSlip::LaminarWallShear;
   return settings;
