@@ -177,6 +177,14 @@ Sloshing slosh(const std::string& solver, double artificialViscosity, double r0 
       const Particles& p = sim.particles();
       double kinetic = 0, modeKinetic = 0, top = 0, wall = 0, middle = 0, potential = 0;
       for (std::size_t i = 0; i < p.size(); ++i) potential += g * double(p.position[i].z());
+      // WCSPH's elastic energy per unit mass of the linear EOS clamped at 0, u = k (ln r + 1 / r - 1)
+      // for r = rho / rho_0 > 1 (du = p / rho^2 drho)
+      double elastic = 0;
+      if (solver == "wcsph")
+        for (std::size_t i = 0; i < p.size(); ++i) {
+          const double r = double(p.density[i]) / double(settings.fluid.restDensity);
+          if (r > 1) elastic += double(sim.constants().stiffness) * (std::log(r) + 1 / r - 1);
+        }
       for (std::size_t i = 0; i < p.size(); ++i) {
         kinetic += 0.5 * p.velocity[i].cast<double>().squaredNorm();
         modeKinetic += 0.5 * A * A * mode(p.position[i]).squaredNorm();
@@ -201,7 +209,7 @@ Sloshing slosh(const std::string& solver, double artificialViscosity, double r0 
       for (std::size_t c = 0; c < sum.size(); ++c)
         if (count[c] > 0) large += 0.5 * sum[c].squaredNorm() / count[c];
       std::cout << "  t " << t << " A " << A << " KE " << kinetic << " mode KE " << modeKinetic << " rest: top "
-                << top << " walls " << wall << " middle " << middle << " large-scale " << large << " KE+PE " << kinetic + potential - potential0 << "\n";
+                << top << " walls " << wall << " middle " << middle << " large-scale " << large << " KE+PE " << kinetic + potential - potential0 << " elastic " << elastic << "\n";
     }
     mode1.add(t, A);
     mean.add(t, u);
