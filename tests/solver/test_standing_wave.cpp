@@ -24,8 +24,9 @@
 // _DIVERGENCE_TOLERANCE, _ITERATIONS, _MAX_DT; WCSPH: _CONTINUITY (delta: continuity density),
 // _APPROACHING_ONLY (artificial viscosity), _CUBIC / _WENDLAND (kernels), _NO_SURFACE_LAYER,
 // _NO_TYPE1 (no repulsion particles), _SAMPLE_GAP (of r0), _R0 (SEED (11)'s r0 in spacings).
-// Verbose runs print KE+PE, the kinetic and gravitational energy per unit particle mass
-// against the start (WCSPH's elastic energy not counted).
+// Verbose runs also print KE+PE, the kinetic and gravitational energy per unit particle
+// mass against the start, and (WCSPH, linear equation of state) the elastic energy: their
+// sum is conserved by an exact Hamiltonian run (docs/solvers.md, "Gravity waves").
 #include "TestEnvironment.h"
 
 #include "libsph/boundary/BoxBoundary.h"
