@@ -165,8 +165,13 @@ Sloshing slosh(const std::string& solver, double artificialViscosity, double r0 
     return sum / double(p.size());
   };
 
-  double potential0 = 0;
-  for (std::size_t i = 0; i < sim.particles().size(); ++i) potential0 += g * double(sim.particles().position[i].z());
+  // Gravitational energy per unit particle mass, summed over the particles.
+  auto potential = [&]() {
+    double sum = 0;
+    for (const Vec3r& x : sim.particles().position) sum += g * double(x.z());
+    return sum;
+  };
+  const double potential0 = potential();
   const int periods = int(envOr("CASCADE_WAVE_PERIODS", 3));
   const double end = periods * result.linearPeriod, sample = result.linearPeriod / 200;
   Oscillation mode1, mean;
@@ -176,17 +181,13 @@ Sloshing slosh(const std::string& solver, double artificialViscosity, double r0 
     const double A = amplitude(), u = meanVelocity();
     if (std::getenv("CASCADE_TEST_VERBOSE")) {
       const Particles& p = sim.particles();
-      double kinetic = 0, modeKinetic = 0, top = 0, wall = 0, middle = 0, potential = 0;
-      for (std::size_t i = 0; i < p.size(); ++i) potential += g * double(p.position[i].z());
-      // WCSPH's elastic energy per unit mass of the linear EOS clamped at 0, u = k (ln r + 1 / r - 1)
-      // for r = rho / rho_0 > 1 (du = p / rho^2 drho)
-      double elastic = 0;
-      if (solver == "wcsph")
-        for (std::size_t i = 0; i < p.size(); ++i) {
-          const double r = double(p.density[i]) / double(settings.fluid.restDensity);
-          if (r > 1) elastic += double(sim.constants().stiffness) * (std::log(r) + 1 / r - 1);
-        }
+      double kinetic = 0, modeKinetic = 0, top = 0, wall = 0, middle = 0, elastic = 0;
+      const bool wcsph = solver == "wcsph";
       for (std::size_t i = 0; i < p.size(); ++i) {
+        // WCSPH's elastic energy per unit mass of the linear EOS clamped at 0,
+        // u = k (ln q + 1 / q - 1) for q = rho / rho_0 > 1 (du = p / rho^2 drho)
+        const double q = double(p.density[i]) / double(settings.fluid.restDensity);
+        if (wcsph && q > 1) elastic += double(sim.constants().stiffness) * (std::log(q) + 1 / q - 1);
         kinetic += 0.5 * p.velocity[i].cast<double>().squaredNorm();
         modeKinetic += 0.5 * A * A * mode(p.position[i]).squaredNorm();
         const double r = 0.5 * (p.velocity[i].cast<double>() - A * mode(p.position[i])).squaredNorm();
@@ -210,7 +211,7 @@ Sloshing slosh(const std::string& solver, double artificialViscosity, double r0 
       for (std::size_t c = 0; c < sum.size(); ++c)
         if (count[c] > 0) large += 0.5 * sum[c].squaredNorm() / count[c];
       std::cout << "  t " << t << " A " << A << " KE " << kinetic << " mode KE " << modeKinetic << " rest: top "
-                << top << " walls " << wall << " middle " << middle << " large-scale " << large << " KE+PE " << kinetic + potential - potential0 << " elastic " << elastic << "\n";
+                << top << " walls " << wall << " middle " << middle << " large-scale " << large << " KE+PE " << kinetic + potential() - potential0 << " elastic " << elastic << "\n";
     }
     mode1.add(t, A);
     mean.add(t, u);
