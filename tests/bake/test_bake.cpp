@@ -12,12 +12,15 @@
 
 #include <gtest/gtest.h>
 
+#include <gnu/libc-version.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 #include <fcntl.h>
 
 #include <cctype>
+#include <cstdio>
+#include <cstdlib>
 #include <chrono>
 #include <algorithm>
 #include <filesystem>
@@ -331,6 +334,42 @@ TEST(Cli, VersionNamesCascadeAndItsLibraries) {
   EXPECT_EQ(text.rfind("cascade " CASCADE_PROJECT_VERSION, 0), 0u) << text;
   for (const char* library : {"OpenVDB 10.", "oneTBB", "Eigen 3.", "CGAL 5.", "assimp 5.", "OSMesa", "libpng"})
     EXPECT_NE(text.find(library), std::string::npos) << library << " missing from\n" << text;
+}
+
+// The stages that make each frame's data afresh restart once with glibc's huge-page
+// tunable (tools/cascade/HugePages.h); `--version` goes the same way and says which heap
+// it got. A caller's own tunables are kept, and a choice of the tunable is never overridden.
+TEST(Cli, VersionReportsTheHeapTheFramewiseStagesGet) {
+  const fs::path log = freshDir("heap").string() + ".log";
+  std::ifstream modes("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string mode;
+  std::getline(modes, mode);
+  int major = 0, minor = 0;
+  std::sscanf(gnu_get_libc_version(), "%d.%d", &major, &minor);
+  const bool available = (mode.find("[always]") != std::string::npos || mode.find("[madvise]") != std::string::npos) &&
+                         (major > 2 || (major == 2 && minor >= 35));
+  const char* saved = std::getenv("GLIBC_TUNABLES");
+  const std::string savedValue = saved ? saved : "";
+  auto heapLine = [&](const char* name, const char* value) {
+    ::unsetenv("GLIBC_TUNABLES");
+    if (name) ::setenv(name, value, 1);
+    const int code = run({"--version"}, log);
+    if (name) ::unsetenv(name);
+    EXPECT_EQ(code, 0);
+    const std::string text = readLog(log);
+    const std::size_t at = text.find("  heap: ");
+    return at == std::string::npos ? text : text.substr(at, text.find('\n', at) - at);
+  };
+  if (available) {
+    EXPECT_EQ(heapLine(nullptr, nullptr), "  heap: transparent huge pages (GLIBC_TUNABLES=glibc.malloc.hugetlb=1)");
+    EXPECT_EQ(heapLine("GLIBC_TUNABLES", "glibc.malloc.tcache_count=7"),
+              "  heap: transparent huge pages (GLIBC_TUNABLES=glibc.malloc.tcache_count=7:glibc.malloc.hugetlb=1)");
+    EXPECT_EQ(heapLine("GLIBC_TUNABLES", "glibc.malloc.hugetlb=0"), "  heap: 4 KiB pages (GLIBC_TUNABLES=glibc.malloc.hugetlb=0)");
+    EXPECT_EQ(heapLine("CASCADE_HUGE_PAGES", "0"), "  heap: 4 KiB pages (CASCADE_HUGE_PAGES=0)");
+  } else {
+    EXPECT_EQ(heapLine(nullptr, nullptr).rfind("  heap: 4 KiB pages (", 0), 0u);
+  }
+  if (saved) ::setenv("GLIBC_TUNABLES", savedValue.c_str(), 1);
 }
 
 // docs/cli.md is the in-repo form of the interface users script against: every option

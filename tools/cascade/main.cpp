@@ -1,5 +1,6 @@
 // cascade: the one program of the Cascade pipeline (docs/cli.md).
 #include "Commands.h"
+#include "HugePages.h"
 
 #include "distributed/MpiRuntime.h"
 #include "libsph/Errors.h"
@@ -17,10 +18,6 @@
 
 int main(int argc, char** argv) {
   using namespace cascade;
-  installVdbAbortGuard();  // OpenVDB's assertions on corrupt files: exit 2 (VdbFile.h)
-  // Under mpirun (or srun --mpi=pmix): MPI for `cascade bake` (distributed/MpiRuntime.h).
-  const distributed::MpiSession mpi(argc, argv);
-  const bool ranks = mpi.active() && mpi.size() > 1;
   // The subcommand, and --threads N (or --threads=N) anywhere on the line: the worker
   // threads are fixed before any work starts.
   std::string command, threadsText;
@@ -30,6 +27,13 @@ int main(int argc, char** argv) {
     else if (word.rfind("--threads=", 0) == 0) threadsText = word.substr(10);
     else if (command.empty() && !word.empty() && word[0] != '-') command = word;
   }
+  // Before anything else: the heap on transparent huge pages for the stages that make
+  // each frame's data afresh (restarts this program once; HugePages.h).
+  cli::preferHugePages(command, argv);
+  installVdbAbortGuard();  // OpenVDB's assertions on corrupt files: exit 2 (VdbFile.h)
+  // Under mpirun (or srun --mpi=pmix): MPI for `cascade bake` (distributed/MpiRuntime.h).
+  const distributed::MpiSession mpi(argc, argv);
+  const bool ranks = mpi.active() && mpi.size() > 1;
   int threads = 0;
   if (!threadsText.empty()) {
     char* end = nullptr;

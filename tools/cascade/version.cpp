@@ -1,6 +1,7 @@
 // `cascade --version`: Cascade's version and those of the libraries it was built with
 // (headers at build time; assimp, libpng and oneTBB also as loaded at run time).
 #include "Commands.h"
+#include "HugePages.h"
 
 #include "libsph/Version.h"
 
@@ -32,7 +33,8 @@ std::string versionText() {
   text += "  libpng " + std::string(PNG_LIBPNG_VER_STRING) + " (loaded " + png_get_libpng_ver(nullptr) + ")\n";
   text += "  nlohmann-json " + number(NLOHMANN_JSON_VERSION_MAJOR) + "." + number(NLOHMANN_JSON_VERSION_MINOR) + "." +
           number(NLOHMANN_JSON_VERSION_PATCH) + "\n";
-  text += "  CLI11 " + std::string(CLI11_VERSION);
+  text += "  CLI11 " + std::string(CLI11_VERSION) + "\n";
+  text += heapPagesText();
   return text;
 }
 
