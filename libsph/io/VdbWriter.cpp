@@ -1,5 +1,7 @@
 #include "libsph/io/VdbWriter.h"
 
+#include "libsph/io/ActiveMaskLeafWriter.h"
+
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -7,6 +9,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <ostream>
 #include <stdexcept>
@@ -115,9 +118,28 @@ public:
 void writeVdbFile(const std::filesystem::path& path, const openvdb::GridCPtrVec& grids, std::uint32_t compression) {
   FileWriteBuffer buffer(path);
   std::ostream stream(&buffer);
+  // Float and Vec3s grids write their leaves through writeActiveMaskLeaf (the same bytes;
+  // CASCADE_VDB_OPENVDB_LEAVES=1, a study knob, leaves them to OpenVDB to compare).
+  static const bool openVdbLeaves = [] {
+    const char* value = std::getenv("CASCADE_VDB_OPENVDB_LEAVES");
+    return value && std::string(value) == "1";
+  }();
+  openvdb::GridCPtrVec writing;
+  for (const openvdb::GridBase::ConstPtr& grid : grids) {
+    if (openVdbLeaves) {
+      writing.push_back(grid);
+      continue;
+    }
+    if (const auto floats = openvdb::gridConstPtrCast<openvdb::FloatGrid>(grid))
+      writing.push_back(std::make_shared<LeafWritingGrid<openvdb::FloatGrid>>(*floats));
+    else if (const auto vectors = openvdb::gridConstPtrCast<openvdb::Vec3SGrid>(grid))
+      writing.push_back(std::make_shared<LeafWritingGrid<openvdb::Vec3SGrid>>(*vectors));
+    else
+      writing.push_back(grid);
+  }
   StreamArchive archive;
   archive.setCompression(compression);
-  archive.writeSeekable(stream, grids);
+  archive.writeSeekable(stream, writing);
   const bool written = bool(stream);
   buffer.close();  // throws with the error a failed write left
   if (!written) throw std::runtime_error(path.string() + ": cannot write");

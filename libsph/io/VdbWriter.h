@@ -6,7 +6,9 @@
 /// 1 KiB or more straight to the kernel: one system call per leaf's values, some
 /// 36,000 for an 80 MB surface with its "v" grid. Here the archive writes into an
 /// 8 MiB buffer over the file descriptor (seekable, as OpenVDB's grid offsets need),
-/// and a failed write (a full disk) throws instead of leaving a short file.
+/// and a failed write (a full disk) throws instead of leaving a short file. Float and
+/// Vec3s grids write their leaves through ActiveMaskLeafWriter.h (the same bytes, in
+/// a fraction of the time).
 /// Include only in .cpp files that already use OpenVDB.
 #pragma once
 
