@@ -336,10 +336,10 @@ TEST(Cli, VersionNamesCascadeAndItsLibraries) {
     EXPECT_NE(text.find(library), std::string::npos) << library << " missing from\n" << text;
 }
 
-// The stages that make each frame's data afresh restart once with glibc's huge-page
-// tunable (tools/cascade/HugePages.h); `--version` goes the same way and says which heap
-// it got. A caller's own tunables are kept, and a choice of the tunable is never overridden.
-TEST(Cli, VersionReportsTheHeapTheFramewiseStagesGet) {
+// The subcommands that surface restart once with glibc's huge-page tunable
+// (tools/cascade/HugePages.h); `--version` goes the same way and says which heap it got.
+// A caller's own tunables are kept, and a choice of the tunable is never overridden.
+TEST(Cli, VersionReportsTheHeapTheSurfacingSubcommandsGet) {
   const fs::path log = freshDir("heap").string() + ".log";
   std::ifstream modes("/sys/kernel/mm/transparent_hugepage/enabled");
   std::string mode;

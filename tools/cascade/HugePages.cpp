@@ -62,10 +62,10 @@ bool optedOut() {
 } // namespace
 
 void preferHugePages(const std::string& subcommand, char** argv) {
-  static const std::set<std::string> framewise = {"surface", "run", "render", "whitewater", "bench"};
+  static const std::set<std::string> surfacing = {"surface", "run", "bench"};
   bool version = false;  // `cascade --version` reports the heap those subcommands get
   for (char** word = argv + 1; *word && subcommand.empty(); ++word) version = version || std::string(*word) == "--version";
-  if ((!framewise.count(subcommand) && !version) || optedOut() || !unavailable().empty()) return;
+  if ((!surfacing.count(subcommand) && !version) || optedOut() || !unavailable().empty()) return;
   const char* tunables = std::getenv("GLIBC_TUNABLES");
   const std::string before = tunables ? tunables : "";
   if (before.find(kTunable) != std::string::npos) return;  // chosen already: by us, or by the caller

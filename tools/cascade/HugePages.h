@@ -16,18 +16,19 @@
 
 namespace cascade::cli {
 
-/// For the subcommands that make each frame's data afresh (surface, run, render,
-/// whitewater, bench; and --version, which reports it), re-executes this program with glibc.malloc.hugetlb=1 added to
-/// GLIBC_TUNABLES (any tunables already there are kept). The others (bake, inspect,
-/// farm, ...) are not restarted: a start costs about 0.15 s here (the dynamic loader),
-/// and a bake allocates its arrays once. Returns when it does not restart: another
+/// For the subcommands that surface (surface, run, bench; and --version, which reports
+/// it), re-executes this program with glibc.malloc.hugetlb=1 added to GLIBC_TUNABLES
+/// (any tunables already there are kept). The others (bake, render, inspect, farm, ...)
+/// are not restarted: a start costs about 0.15 s here (the dynamic loader), a bake
+/// allocates its arrays once (measured: no gain), and render and whitewater were not
+/// measured to gain. Returns when it does not restart: another
 /// subcommand; the tunable (any value) is already set; CASCADE_HUGE_PAGES=0; the kernel's
 /// transparent huge pages are `never` or unknown; glibc is older than 2.35 (no such
 /// tunable); a sanitizer's allocator replaces malloc; or the exec failed.
 void preferHugePages(const std::string& subcommand, char** argv);
 
 /// One line for `cascade --version`: whether this process's heap is on huge pages (and
-/// so the framewise subcommands'), with GLIBC_TUNABLES as it is, or why not.
+/// so surface, run and bench's), with GLIBC_TUNABLES as it is, or why not.
 std::string heapPagesText();
 
 } // namespace cascade::cli

@@ -27,8 +27,8 @@ int main(int argc, char** argv) {
     else if (word.rfind("--threads=", 0) == 0) threadsText = word.substr(10);
     else if (command.empty() && !word.empty() && word[0] != '-') command = word;
   }
-  // Before anything else: the heap on transparent huge pages for the stages that make
-  // each frame's data afresh (restarts this program once; HugePages.h).
+  // Before anything else: the heap on transparent huge pages for the subcommands that
+  // surface (restarts this program once; HugePages.h).
   cli::preferHugePages(command, argv);
   installVdbAbortGuard();  // OpenVDB's assertions on corrupt files: exit 2 (VdbFile.h)
   // Under mpirun (or srun --mpi=pmix): MPI for `cascade bake` (distributed/MpiRuntime.h).
