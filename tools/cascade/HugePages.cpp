@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <set>
 
 #if defined(__has_feature)
@@ -42,14 +43,14 @@ std::string unavailable() {
 }
 
 /// The value of glibc.malloc.hugetlb in GLIBC_TUNABLES (name=value pairs joined by ':'),
-/// or empty when it is not there.
-std::string tunableValue() {
+/// or nothing when it is not there.
+std::optional<std::string> tunableValue() {
   const char* tunables = std::getenv("GLIBC_TUNABLES");
-  if (!tunables) return "";
+  if (!tunables) return std::nullopt;
   const std::string list = std::string(":") + tunables + ":";
   const std::string key = std::string(":") + kTunable + "=";
   const std::size_t at = list.find(key);
-  if (at == std::string::npos) return "";
+  if (at == std::string::npos) return std::nullopt;
   const std::size_t begin = at + key.size();
   return list.substr(begin, list.find(':', begin) - begin);
 }
@@ -66,9 +67,9 @@ void preferHugePages(const std::string& subcommand, char** argv) {
   bool version = false;  // `cascade --version` reports the heap those subcommands get
   for (char** word = argv + 1; *word && subcommand.empty(); ++word) version = version || std::string(*word) == "--version";
   if ((!surfacing.count(subcommand) && !version) || optedOut() || !unavailable().empty()) return;
+  if (tunableValue()) return;  // chosen already: by us, or by the caller
   const char* tunables = std::getenv("GLIBC_TUNABLES");
   const std::string before = tunables ? tunables : "";
-  if (before.find(kTunable) != std::string::npos) return;  // chosen already: by us, or by the caller
   const std::string value = (before.empty() ? "" : before + ":") + kTunable + "=1";
   if (::setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
   ::execv("/proc/self/exe", argv);
@@ -78,12 +79,12 @@ void preferHugePages(const std::string& subcommand, char** argv) {
 }
 
 std::string heapPagesText() {
-  const char* tunables = std::getenv("GLIBC_TUNABLES");
-  const std::string value = tunableValue(), reason = unavailable();
+  const std::optional<std::string> value = tunableValue();
+  const std::string reason = unavailable();
   if (!reason.empty()) return "  heap: 4 KiB pages (" + reason + ")";
-  if (!value.empty())
-    return std::string("  heap: ") + (value == "0" ? "4 KiB pages" : "transparent huge pages") + " (GLIBC_TUNABLES=" +
-           tunables + ")";
+  if (value)
+    return std::string("  heap: ") + (*value == "0" ? "4 KiB pages" : "transparent huge pages") + " (GLIBC_TUNABLES=" +
+           std::getenv("GLIBC_TUNABLES") + ")";
   if (optedOut()) return "  heap: 4 KiB pages (CASCADE_HUGE_PAGES=0)";
   return "  heap: 4 KiB pages (could not restart with " + std::string(kTunable) + "=1)";
 }
