@@ -49,6 +49,8 @@ openvdb::Vec3SGrid::Ptr velocityOverBand(const openvdb::FloatGrid& levelSet, ope
   using LeafT = openvdb::Vec3STree::LeafNodeType;
   using FloatLeaf = openvdb::FloatTree::LeafNodeType;
   using Mask = LeafT::NodeMaskType;
+  using Word = Mask::Word;
+  static_assert(LeafT::DIM == 8, "a mask word per x, bit (y << 3) | z");
   ProfileClock profile;
   if (!known) known = std::make_shared<openvdb::Vec3STree>(openvdb::Vec3s(0.0f));
   if (known->hasActiveTiles()) known->voxelizeActiveTiles();  // none from VelocityLeaves
@@ -133,32 +135,50 @@ openvdb::Vec3SGrid::Ptr velocityOverBand(const openvdb::FloatGrid& levelSet, ope
             resolved[l].setOff();
             if (unknown[l].isOff()) continue;
             LeafT& leaf = *leaves[l];
-            const Mask& knownMask = leaf.getValueMask();
             openvdb::Vec3s* values = leaf.buffer().data();
-            for (auto on = unknown[l].beginOn(); on; ++on) {
-              const openvdb::Index offset = on.pos();
-              const int local[3] = {int(offset >> 6), int((offset >> 3) & 7), int(offset & 7)};
-              const openvdb::Index stride[3] = {64, 8, 1};
-              openvdb::Vec3s sum(0.0f);
-              int count6 = 0;
-              for (int axis = 0, n = 0; axis < 3; ++axis)
-                for (int side = -1; side <= 1; side += 2, ++n) {
-                  const int next = local[axis] + side;
-                  if (next >= 0 && next < D) {
-                    const openvdb::Index neighbor = side < 0 ? offset - stride[axis] : offset + stride[axis];
-                    if (knownMask.isOn(neighbor)) sum += values[neighbor], ++count6;
-                  } else {  // across the face: the same voxel on the far side of the next leaf
-                    const LeafT* owner = faceLeaves[l][std::size_t(n)];
-                    if (!owner) continue;
-                    const openvdb::Index neighbor =
-                        side < 0 ? offset + (D - 1) * stride[axis] : offset - (D - 1) * stride[axis];
-                    if (owner->isValueOn(neighbor)) sum += owner->getValue(neighbor), ++count6;
+            // The known bits of this leaf and of its face neighbours (null: none), a
+            // word per x: bit (y << 3) | z.
+            const Mask& knownMask = leaf.getValueMask();
+            const Mask* faceMask[6];
+            const openvdb::Vec3s* faceValues[6];
+            for (int n = 0; n < 6; ++n) {
+              const LeafT* face = faceLeaves[l][std::size_t(n)];
+              faceMask[n] = face ? &face->getValueMask() : nullptr;
+              faceValues[n] = face ? face->buffer().data() : nullptr;
+            }
+            for (int x = 0; x < D; ++x) {
+              Word todo = unknown[l].template getWord<Word>(openvdb::Index(x));
+              while (todo != 0) {
+                const int yz = __builtin_ctzll(todo);
+                todo &= todo - 1;
+                const int y = yz >> 3, z = yz & 7;
+                const openvdb::Index offset = openvdb::Index((x << 6) | yz);
+                openvdb::Vec3s sum(0.0f);
+                int count6 = 0;
+                // A neighbour in this leaf (at `delta` from offset), or across face n
+                // (the same voxel on the far side of the next leaf, at `across`).
+                auto add = [&](bool inside, int bit, int word, int delta, int n, int acrossBit, int acrossWord,
+                               int across) {
+                  if (inside) {
+                    if ((knownMask.template getWord<Word>(openvdb::Index(word)) >> bit) & 1)
+                      sum += values[int(offset) + delta], ++count6;
+                  } else if (faceMask[n] &&
+                             ((faceMask[n]->template getWord<Word>(openvdb::Index(acrossWord)) >> acrossBit) & 1)) {
+                    sum += faceValues[n][int(offset) + across], ++count6;
                   }
-                }
-              if (count6 == 0) continue;
-              values[offset] = sum / float(count6);
-              resolved[l].setOn(offset);
-              ++count;
+                };
+                // The order of BandVelocity's first version (x -, x +, y -, y +, z -, z +): the same sums.
+                add(x > 0, yz, x - 1, -64, 0, yz, D - 1, (D - 1) * 64);
+                add(x < D - 1, yz, x + 1, 64, 1, yz, 0, -(D - 1) * 64);
+                add(y > 0, yz - 8, x, -8, 2, yz + (D - 1) * 8, x, (D - 1) * 8);
+                add(y < D - 1, yz + 8, x, 8, 3, yz - (D - 1) * 8, x, -(D - 1) * 8);
+                add(z > 0, yz - 1, x, -1, 4, yz + (D - 1), x, D - 1);
+                add(z < D - 1, yz + 1, x, 1, 5, yz - (D - 1), x, -(D - 1));
+                if (count6 == 0) continue;
+                values[offset] = sum / float(count6);
+                resolved[l].setOn(offset);
+                ++count;
+              }
             }
           }
           return count;
