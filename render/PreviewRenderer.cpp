@@ -7,6 +7,8 @@
 #include <GL/gl.h>
 #include <GL/glext.h>
 
+#include "render/OsMesaLibrary.h"  // after the GL headers with their prototypes
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -58,7 +60,7 @@ struct GlFunctions {
 
   void load() {
 #define CASCADE_GL_LOAD(name)                                                                      \
-  name = reinterpret_cast<decltype(&::name)>(OSMesaGetProcAddress(#name));                          \
+  name = reinterpret_cast<decltype(&::name)>(osMesa().getProcAddress(#name));                          \
   if (!name) throw std::runtime_error("render: OSMesa lacks " #name);
     CASCADE_GL_FUNCTIONS(CASCADE_GL_LOAD)
 #undef CASCADE_GL_LOAD
@@ -201,7 +203,7 @@ PreviewRenderer::Impl::Impl(int w, int h, int samples, RenderLook renderLook)
   const int attributes[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 0, OSMESA_STENCIL_BITS, 0,
                             OSMESA_ACCUM_BITS, 0, OSMESA_PROFILE, OSMESA_CORE_PROFILE,
                             OSMESA_CONTEXT_MAJOR_VERSION, 3, OSMESA_CONTEXT_MINOR_VERSION, 3, 0};
-  context = OSMesaCreateContextAttribs(attributes, nullptr);
+  context = osMesa().createContextAttribs(attributes, nullptr);
   if (!context)
     throw std::runtime_error("render: cannot create an OSMesa OpenGL 3.3 core context (Mesa llvmpipe)");
   makeCurrent();
@@ -292,11 +294,11 @@ PreviewRenderer::Impl::Impl(int w, int h, int samples, RenderLook renderLook)
 }
 
 PreviewRenderer::Impl::~Impl() {
-  if (context) OSMesaDestroyContext(context);  // frees every GL object of the context
+  if (context) osMesa().destroyContext(context);  // frees every GL object of the context
 }
 
 void PreviewRenderer::Impl::makeCurrent() {
-  if (!OSMesaMakeCurrent(context, dummyBuffer.data(), GL_UNSIGNED_BYTE, 16, 16))
+  if (!osMesa().makeCurrent(context, dummyBuffer.data(), GL_UNSIGNED_BYTE, 16, 16))
     throw std::runtime_error("render: OSMesaMakeCurrent failed");
 }
 

@@ -429,10 +429,19 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
   const float stageHeight = stage.isEmpty() ? 1.0f : std::max(stage.sizes().z(), 0.05f);
   const float speedScale = std::sqrt(2.0f * scene.gravity * stageHeight);
 
-  std::unique_ptr<PreviewRenderer> rendererStorage;  // made on first use (none if all frames are up to date)
+  // Made on first use (none if all frames are up to date). One that cannot be made (no
+  // OSMesa, no GL 3.3 context) is no frame's fault: the stage stops with that one error.
+  struct RendererUnavailable : std::runtime_error {
+    using std::runtime_error::runtime_error;
+  };
+  std::unique_ptr<PreviewRenderer> rendererStorage;
   auto renderer = [&]() -> PreviewRenderer& {
     if (!rendererStorage) {
-      rendererStorage = std::make_unique<PreviewRenderer>(options.width, options.height, options.samples);
+      try {
+        rendererStorage = std::make_unique<PreviewRenderer>(options.width, options.height, options.samples);
+      } catch (const std::exception& e) {
+        throw RendererUnavailable(e.what());
+      }
       report.glDescription = rendererStorage->glDescription();
     }
     return *rendererStorage;
@@ -563,6 +572,8 @@ RenderReport renderOutput(const fs::path& out, const RenderOptions& options,
     } catch (const InputError& e) {
       report.errors.push_back(e.what());
       if (log) log(e.what());
+    } catch (const RendererUnavailable&) {
+      throw;
     } catch (const std::exception& e) {
       otherFailure = true;
       report.errors.push_back(input.path.string() + ": " + e.what());

@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -195,6 +196,37 @@ TEST(RenderCommand, BrokenMeshExitsTwoNamingTheFileAndOtherFramesRender) {
   EXPECT_NE(text.find("fluid.0002.obj"), std::string::npos) << text;
   EXPECT_TRUE(fs::exists(out / "render" / "frame.0001.png"));
   EXPECT_FALSE(fs::exists(out / "render" / "frame.0002.png"));
+  fs::remove_all(out);
+}
+
+// OSMesa is loaded when the first picture is drawn (render/OsMesaLibrary.h): without it,
+// `cascade render` stops with one line naming the library it could not load and the
+// Debian package, and draws nothing; every other subcommand starts without it.
+TEST(RenderCommand, AMissingOsMesaIsOneLineNamingTheLibrary) {
+  const fs::path program = fs::path(CASCADE_BINARY_DIR) / "cascade";
+  if (!fs::exists(program)) GTEST_SKIP() << "cascade not built";
+  const fs::path out = freshOut("render_no_osmesa");
+  writeObj(out / "mesh" / "fluid.0001.obj", blob(0.3f));
+  const fs::path log = out / "stderr.txt";
+  const std::string missing = (out / "no_such_libOSMesa.so").string();
+  const int status = std::system(("CASCADE_OSMESA_LIBRARY=" + missing + " " + program.string() + " render " +
+                                  out.string() + " --width 96 --height 64 --samples 1 > /dev/null 2> " + log.string())
+                                     .c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_NE(WEXITSTATUS(status), 0);
+  std::ifstream in(log);
+  const std::string text((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_NE(text.find(missing), std::string::npos) << text;
+  EXPECT_NE(text.find("libosmesa6"), std::string::npos) << text;
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 1) << text;
+  EXPECT_FALSE(fs::exists(out / "render" / "frame.0001.png"));
+  // The program itself does not link OSMesa (nor LLVM).
+  const fs::path maps = out / "maps.txt";
+  ASSERT_EQ(std::system(("ldd " + program.string() + " > " + maps.string()).c_str()), 0);
+  std::ifstream linked(maps);
+  const std::string libraries((std::istreambuf_iterator<char>(linked)), {});
+  EXPECT_EQ(libraries.find("libOSMesa"), std::string::npos) << libraries;
+  EXPECT_EQ(libraries.find("libLLVM"), std::string::npos) << libraries;
   fs::remove_all(out);
 }
 
