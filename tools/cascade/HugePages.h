@@ -19,9 +19,9 @@ namespace cascade::cli {
 /// For the subcommands that surface (surface, run, bench; and --version, which reports
 /// it), re-executes this program with glibc.malloc.hugetlb=1 added to GLIBC_TUNABLES
 /// (any tunables already there are kept). The others (bake, render, inspect, farm, ...)
-/// are not restarted: a start costs about 0.15 s here (the dynamic loader), a bake
-/// allocates its arrays once (measured: no gain), and render and whitewater were not
-/// measured to gain. Returns when it does not restart: another
+/// are not restarted: a start costs about 0.08 s here (the dynamic loader), a bake
+/// allocates its arrays once (measured: no gain), render gained 7-8 % (near the noise)
+/// and whitewater nothing (docs/cli.md). Returns when it does not restart: another
 /// subcommand; the tunable (any value) is already set; CASCADE_HUGE_PAGES=0; the kernel's
 /// transparent huge pages are `never` or unknown; glibc is older than 2.35 (no such
 /// tunable); a sanitizer's allocator replaces malloc; or the exec failed.
