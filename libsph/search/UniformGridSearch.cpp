@@ -379,6 +379,73 @@ struct GridQuery {
     scanBoxOf(lo, hi, emit);
   }
 
+  /// A self query with the build radius, the queries of group (cell) g: the 27
+  /// cells hold every neighbour. The points of the cells within the radius of
+  /// the box that bounds the cell's queries are first gathered into one packed
+  /// run (in place order, so the lists keep the order of a scan of the cells),
+  /// then every query scans that run, two at a time (the points loaded once for
+  /// both). The box test keeps every point within the radius of some query: its
+  /// distance is at most the query's, and the reach allows for round-off.
+  template <typename Scan>
+  void runCellCompact(std::size_t g, Stencil& stencil, std::vector<Real>& nearX, std::vector<Real>& nearY,
+                      std::vector<Real>& nearZ, std::vector<std::uint32_t>& nearIndex, ChunkWriter& writer) const {
+    const Real* xs = grid.mX.data();
+    const Real* ys = grid.mY.data();
+    const Real* zs = grid.mZ.data();
+    const std::uint32_t first = groupStart[g], last = groupStart[g + 1];
+    makeStencil(groupKey[g], stencil);
+    Real lo[3] = {std::numeric_limits<Real>::infinity(), std::numeric_limits<Real>::infinity(),
+                  std::numeric_limits<Real>::infinity()};
+    Real hi[3] = {-lo[0], -lo[1], -lo[2]};
+    for (std::uint32_t s = first; s < last; ++s) {
+      // (NaN coordinates fail both tests: such a query has no neighbours.)
+      if (xs[s] < lo[0]) lo[0] = xs[s];
+      if (xs[s] > hi[0]) hi[0] = xs[s];
+      if (ys[s] < lo[1]) lo[1] = ys[s];
+      if (ys[s] > hi[1]) hi[1] = ys[s];
+      if (zs[s] < lo[2]) lo[2] = zs[s];
+      if (zs[s] > hi[2]) hi[2] = zs[s];
+    }
+    const Real radius2 = grid.mRadius * grid.mRadius;
+    const Real reach2 = radius2 * Real(1 + 1e-5) + std::numeric_limits<Real>::min();
+    const std::size_t room = std::size_t(stencil.candidates) + 2 * kScanOverwrite;
+    if (nearIndex.size() < room) {
+      nearX.resize(room);
+      nearY.resize(room);
+      nearZ.resize(room);
+      nearIndex.resize(room);
+    }
+    std::uint32_t near = 0;
+    for (int r = 0; r < stencil.mergedCount; ++r)
+      near = Scan::gatherNear(xs, ys, zs, grid.mOrder.data(), stencil.merged[r].begin, stencil.merged[r].end,
+                              lo, hi, reach2, nearX.data(), nearY.data(), nearZ.data(), nearIndex.data(), near);
+    const Real *bx = nearX.data(), *by = nearY.data(), *bz = nearZ.data();
+    const std::uint32_t* bi = nearIndex.data();
+    for (std::uint32_t s = first; s < last; ++s) {
+      const std::uint32_t q = queryOrder[s];
+      const std::uint32_t exclude = excludeSelf ? q : kNoIndex;
+      if (s + 1 < last) {
+        const std::uint32_t q2 = queryOrder[s + 1];
+        const Real a[3] = {xs[s], ys[s], zs[s]}, b[3] = {xs[s + 1], ys[s + 1], zs[s + 1]};
+        std::uint32_t* out = writer.reserve(2 * (std::size_t(near) + kScanOverwrite));
+        std::uint32_t* out2 = out + near + kScanOverwrite;
+        std::uint32_t found = 0, found2 = 0;
+        Scan::scanPair(bx, by, bz, bi, 0, near, a, b, radius2, exclude, excludeSelf ? q2 : kNoIndex, out, out2,
+                       found, found2);
+        writer.advance(found);
+        writer.finishQuery(q);
+        Scan::moveDown(out + found, out2, found2);
+        writer.advance(found2);
+        writer.finishQuery(q2);
+        ++s;
+        continue;
+      }
+      std::uint32_t* out = writer.reserve(std::size_t(near) + kScanOverwrite);
+      writer.advance(Scan::scan(bx, by, bz, bi, 0, near, xs[s], ys[s], zs[s], radius2, exclude, out));
+      writer.finishQuery(q);
+    }
+  }
+
   /// Processes the query places of groups [groupBegin, groupEnd) into buffer;
   /// writes each query's neighbour count to counts[query index].
   template <typename Scan>
@@ -389,7 +456,13 @@ struct GridQuery {
     const Real* zs = grid.mZ.data();
     const std::uint32_t* order = grid.mOrder.data();
     const bool alwaysStencil = self && !radii && grid.mSelfStencilOk;
+    std::vector<Real> nearX, nearY, nearZ;
+    std::vector<std::uint32_t> nearIndex;
     for (std::size_t g = groupBegin; g < groupEnd; ++g) {
+      if (alwaysStencil) {
+        runCellCompact<Scan>(g, stencil, nearX, nearY, nearZ, nearIndex, writer);
+        continue;
+      }
       std::uint32_t c[3];
       mortonDecode(groupKey[g], c[0], c[1], c[2]);
       bool haveStencil = false;
@@ -426,7 +499,7 @@ struct GridQuery {
                              exclude, excludeSelf ? q2 : kNoIndex, out, out2, found, found2);
             writer.advance(found);
             writer.finishQuery(q);
-            std::memmove(out + found, out2, found2 * sizeof(std::uint32_t));
+            Scan::moveDown(out + found, out2, found2);
             writer.advance(found2);
             writer.finishQuery(q2);
             ++s;
@@ -496,6 +569,11 @@ struct GridQuery {
 CASCADE_SEARCH_AVX2_TARGET void runGridChunkAvx2(const GridQuery& job, std::size_t groupBegin,
                                                   std::size_t groupEnd, ChunkWriter& writer) {
   job.runChunk<ScanAvx2>(groupBegin, groupEnd, writer);
+}
+
+CASCADE_SEARCH_AVX512_TARGET void runGridChunkAvx512(const GridQuery& job, std::size_t groupBegin,
+                                                      std::size_t groupEnd, ChunkWriter& writer) {
+  job.runChunk<ScanAvx512>(groupBegin, groupEnd, writer);
 }
 
 /// The queries of one call grouped by cell in curve order, and cut into chunks
@@ -578,10 +656,12 @@ void UniformGridSearch::query(const Vec3r* queries, std::size_t count, const Rea
   groupQueries(queries, count, groups);
   const GridQuery job{*this,        queries,           supportRadii,      excludeSelf,
                       groups.self, groups.queryOrder, groups.groupStart, groups.groupKey};
-  const bool avx2 = searchUsesAvx2();
+  const bool avx2 = searchUsesAvx2(), avx512 = searchUsesAvx512();
   assembleLists(count, groups.queryOrder, groups.chunkStart, scratch, out,
                 [&](std::size_t chunk, std::uint32_t, std::uint32_t, ChunkWriter& writer) {
-                  if (avx2)
+                  if (avx512)
+                    runGridChunkAvx512(job, groups.chunkGroup[chunk], groups.chunkGroup[chunk + 1], writer);
+                  else if (avx2)
                     runGridChunkAvx2(job, groups.chunkGroup[chunk], groups.chunkGroup[chunk + 1], writer);
                   else
                     job.runChunk<ScanBaseline>(groups.chunkGroup[chunk], groups.chunkGroup[chunk + 1], writer);

@@ -4,6 +4,7 @@
 #include "libsph/Particles.h"
 #include "libsph/search/MortonCode.h"
 #include "libsph/search/OctreeSearch.h"
+#include "libsph/search/ScanRange.h"
 #include "libsph/search/UniformGridSearch.h"
 
 #include <gtest/gtest.h>
@@ -11,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <mutex>
 #include <random>
 #include <set>
@@ -468,4 +470,166 @@ TEST(OctreeSearch, LargeSetsMatchTheGridAcrossRebuilds) {
     ASSERT_EQ(toSets(got), toSets(expected)) << count << " points";
     EXPECT_EQ(expectConsistentTree(octree, count), count);  // one point per leaf
   }
+}
+
+// The scan primitives every search shares (ScanRange.h), on each instruction set
+// this processor runs, against the scalar reference: the same neighbours in the
+// same order, and a box filter that keeps every point within reach of the box.
+namespace {
+
+struct ScanData {
+  std::vector<Real> x, y, z;
+  std::vector<std::uint32_t> order;
+  std::uint32_t count = 0;
+};
+
+/// Points around a query box, a few exactly at the reach and one NaN, padded as
+/// the searches pad them.
+ScanData scanData(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<Real> u(-0.75f, 1.75f);
+  ScanData d;
+  for (int i = 0; i < 300; ++i) {
+    d.x.push_back(u(rng));
+    d.y.push_back(u(rng));
+    d.z.push_back(u(rng));
+  }
+  // The box is [0, 1]^3, the reach 0.5: points exactly at it along an axis.
+  for (const Real offset : {-0.5f, 1.5f}) {
+    d.x.push_back(offset), d.y.push_back(0.5f), d.z.push_back(0.25f);
+    d.x.push_back(0.5f), d.y.push_back(offset), d.z.push_back(1.0f);
+    d.x.push_back(0.0f), d.y.push_back(0.75f), d.z.push_back(offset);
+  }
+  d.x.push_back(std::nanf("")), d.y.push_back(0.5f), d.z.push_back(0.5f);
+  d.count = std::uint32_t(d.x.size());
+  for (std::uint32_t k = 0; k < d.count; ++k) d.order.push_back(1000 + 7 * k);
+  for (std::size_t k = 0; k < search::kScanPadding; ++k) {
+    d.x.push_back(std::nanf("")), d.y.push_back(std::nanf("")), d.z.push_back(std::nanf(""));
+    d.order.push_back(0xffffffffu);
+  }
+  return d;
+}
+
+template <typename Scan>
+std::vector<std::uint32_t> gatherWith(const ScanData& d, std::uint32_t begin, std::uint32_t end, Real reach2,
+                                      std::vector<Real>* positions = nullptr) {
+  const Real lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+  const std::size_t room = d.count + 2 * search::kScanOverwrite;
+  std::vector<Real> bx(room), by(room), bz(room);
+  std::vector<std::uint32_t> bi(room);
+  const std::uint32_t n = Scan::gatherNear(d.x.data(), d.y.data(), d.z.data(), d.order.data(), begin, end, lo, hi,
+                                           reach2, bx.data(), by.data(), bz.data(), bi.data(), 0);
+  bi.resize(n);
+  if (positions)
+    for (std::uint32_t k = 0; k < n; ++k) positions->insert(positions->end(), {bx[k], by[k], bz[k]});
+  return bi;
+}
+
+template <typename Scan>
+std::vector<std::uint32_t> scanWith(const ScanData& d, std::uint32_t begin, std::uint32_t end, const Real q[3],
+                                    Real radius2, std::uint32_t exclude) {
+  std::vector<std::uint32_t> out(d.count + search::kScanOverwrite);
+  out.resize(Scan::scan(d.x.data(), d.y.data(), d.z.data(), d.order.data(), begin, end, q[0], q[1], q[2], radius2,
+                        exclude, out.data()));
+  return out;
+}
+
+template <typename Scan>
+std::pair<std::vector<std::uint32_t>, std::vector<std::uint32_t>> scanPairWith(const ScanData& d, std::uint32_t begin,
+                                                                               std::uint32_t end, const Real a[3],
+                                                                               const Real b[3], Real radius2) {
+  const std::size_t room = d.count + search::kScanOverwrite;
+  std::vector<std::uint32_t> out(2 * room);
+  std::uint32_t na = 0, nb = 0;
+  Scan::scanPair(d.x.data(), d.y.data(), d.z.data(), d.order.data(), begin, end, a, b, radius2, d.order[begin],
+                 0xffffffffu, out.data(), out.data() + room, na, nb);
+  // The second list moved down onto the first, as a pair query joins them.
+  Scan::moveDown(out.data() + na, out.data() + room, nb);
+  return {std::vector<std::uint32_t>(out.begin(), out.begin() + na),
+          std::vector<std::uint32_t>(out.begin() + na, out.begin() + na + nb)};
+}
+
+} // namespace
+
+TEST(ScanRange, BoxFilterKeepsExactlyThePointsWithinReachOfTheBoxOnEveryInstructionSet) {
+  const ScanData d = scanData(21);
+  const Real reach2 = 0.25f;
+  // Reference by hand: per-axis excess over the box, in the filter's order of operations.
+  // Positions are fetched by place below, from the index (1000 + 7 place).
+  std::vector<std::uint32_t> expected;
+  for (std::uint32_t k = 0; k < d.count; ++k) {
+    const Real p[3] = {d.x[k], d.y[k], d.z[k]};
+    Real e[3];
+    for (int a = 0; a < 3; ++a) e[a] = std::max(std::max(Real(0) - p[a], p[a] - Real(1)), Real(0));
+    // (The NaN point is kept: a scan never matches it.)
+    if (!((e[0] * e[0] + e[1] * e[1]) + e[2] * e[2] > reach2)) expected.push_back(d.order[k]);
+  }
+  ASSERT_GT(expected.size(), 50u);
+  ASSERT_LT(expected.size(), std::size_t(d.count) - 50);
+  // The six points exactly at the reach are kept (and the NaN).
+  EXPECT_EQ(std::count_if(expected.begin(), expected.end(), [&](std::uint32_t i) { return i >= d.order[300]; }), 7);
+  const auto sameBits = [](const std::vector<Real>& u, const std::vector<Real>& v) {
+    return u.size() == v.size() && (u.empty() || std::memcmp(u.data(), v.data(), u.size() * sizeof(Real)) == 0);
+  };
+
+  // Every start and end within the run (the vector paths' tails), and the
+  // positions carried with the indices.
+  for (std::uint32_t begin : {0u, 1u, 7u, 15u, 16u, 17u})
+    for (std::uint32_t end : {begin, begin + 1, begin + 9, begin + 33, d.count}) {
+      std::vector<std::uint32_t> part;
+      for (const std::uint32_t i : expected)
+        if (i >= d.order[begin] && (end == begin || i < d.order[begin] + 7 * (end - begin))) part.push_back(i);
+      if (end == begin) part.clear();
+      std::vector<Real> positions;
+      const auto baseline = gatherWith<search::ScanBaseline>(d, begin, end, reach2, &positions);
+      ASSERT_EQ(baseline, part) << begin << ".." << end;
+      std::vector<Real> carried;
+      for (const std::uint32_t i : baseline) {
+        const std::uint32_t place = (i - 1000) / 7;
+        carried.insert(carried.end(), {d.x[place], d.y[place], d.z[place]});
+      }
+      ASSERT_TRUE(sameBits(positions, carried));
+#ifdef CASCADE_SCAN_X86
+      if (search::searchUsesAvx2()) {
+        std::vector<Real> simd;
+        EXPECT_EQ(gatherWith<search::ScanAvx2>(d, begin, end, reach2, &simd), baseline) << begin << ".." << end;
+        EXPECT_TRUE(sameBits(simd, positions));
+      }
+      if (__builtin_cpu_supports("avx512f")) {
+        std::vector<Real> simd;
+        EXPECT_EQ(gatherWith<search::ScanAvx512>(d, begin, end, reach2, &simd), baseline) << begin << ".." << end;
+        EXPECT_TRUE(sameBits(simd, positions));
+      }
+#endif
+    }
+}
+
+TEST(ScanRange, ScansAgreeInSetAndOrderOnEveryInstructionSet) {
+  const ScanData d = scanData(22);
+  const Real a[3] = {0.5f, 0.25f, 1.0f}, b[3] = {1.0f, 0.75f, 0.0f};
+  const Real radius2 = 0.36f;
+  for (std::uint32_t begin : {0u, 3u, 16u})
+    for (std::uint32_t end : {begin + 1, begin + 15, begin + 16, begin + 41, d.count}) {
+      // Reference: squaredDistance() point by point, the exclusion by index.
+      std::vector<std::uint32_t> expectedA, expectedB;
+      for (std::uint32_t k = begin; k < end; ++k) {
+        const Vec3r p(d.x[k], d.y[k], d.z[k]);
+        if (squaredDistance(Vec3r(a[0], a[1], a[2]), p) <= radius2 && k != begin) expectedA.push_back(d.order[k]);
+        if (squaredDistance(Vec3r(b[0], b[1], b[2]), p) <= radius2) expectedB.push_back(d.order[k]);
+      }
+      const auto baseline = scanPairWith<search::ScanBaseline>(d, begin, end, a, b, radius2);
+      ASSERT_EQ(baseline.first, expectedA) << begin << ".." << end;
+      ASSERT_EQ(baseline.second, expectedB) << begin << ".." << end;
+      ASSERT_EQ(scanWith<search::ScanBaseline>(d, begin, end, a, radius2, d.order[begin]), expectedA);
+#ifdef CASCADE_SCAN_X86
+      if (search::searchUsesAvx2()) {
+        EXPECT_EQ((scanPairWith<search::ScanAvx2>(d, begin, end, a, b, radius2)), baseline);
+        EXPECT_EQ(scanWith<search::ScanAvx2>(d, begin, end, a, radius2, d.order[begin]), expectedA);
+      }
+      if (__builtin_cpu_supports("avx512f")) {
+        EXPECT_EQ((scanPairWith<search::ScanAvx512>(d, begin, end, a, b, radius2)), baseline);
+        EXPECT_EQ(scanWith<search::ScanAvx512>(d, begin, end, a, radius2, d.order[begin]), expectedA);
+      }
+#endif
+    }
 }
