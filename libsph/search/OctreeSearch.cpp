@@ -1,5 +1,6 @@
 #include "libsph/search/OctreeSearch.h"
 
+#include "libsph/search/CellKeys.h"
 #include "libsph/search/Lattice.h"
 #include "libsph/search/MortonCode.h"
 #include "libsph/search/RadixSort.h"
@@ -168,14 +169,7 @@ void OctreeSearch::build(const Vec3r* points, std::size_t count, Real maxSupport
   mKeys.resize(count);
   mOrder.resize(count);
   std::iota(mOrder.begin(), mOrder.end(), 0u);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 8192), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      std::uint32_t c[3];
-      for (int a = 0; a < 3; ++a)
-        c[a] = clampToLattice(latticeFloor((double(points[i][a]) - mOrigin[a]) * mScale));
-      mKeys[i] = mortonEncode(c[0], c[1], c[2]);
-    }
-  });
+  cellKeys(points, count, mOrigin, mScale, mKeys.data());
   // Radix sort on the top 24 bits (the first eight levels), then each run of
   // equal top bits (a few points, in a compact fluid) sorted on the full code.
   constexpr int kTopBit = 3 * kLevels - 24;

@@ -1,5 +1,6 @@
 #include "libsph/search/UniformGridSearch.h"
 
+#include "libsph/search/CellKeys.h"
 #include "libsph/search/Lattice.h"
 #include "libsph/search/MortonCode.h"
 #include "libsph/search/ListAssembly.h"
@@ -99,15 +100,7 @@ void UniformGridSearch::sortPoints(const Vec3r* points, std::size_t count, bool 
   // Morton key of every point, by point index.
   std::vector<std::uint64_t>& pointKey = mKeyScratch2;
   pointKey.resize(count);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 8192), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const Vec3r& p = points[i];
-      std::uint32_t c[3];
-      for (int a = 0; a < 3; ++a)
-        c[a] = clampToLattice(latticeFloor((double(p[a]) - mOrigin[a]) * mInvCellSize));
-      pointKey[i] = mortonEncode(c[0], c[1], c[2]);
-    }
-  });
+  cellKeys(points, count, mOrigin, mInvCellSize, pointKey.data());
   const int keyBits =
       3 * bitWidth(std::max({std::uint64_t(mMaxCell[0]), std::uint64_t(mMaxCell[1]),
                              std::uint64_t(mMaxCell[2])}));

@@ -2,6 +2,7 @@
 // (NeighborSearch.h: |q - p|^2 <= r^2 by squaredDistance(), inclusive).
 #include "libsph/NeighborSearch.h"
 #include "libsph/Particles.h"
+#include "libsph/search/CellKeys.h"
 #include "libsph/search/MortonCode.h"
 #include "libsph/search/OctreeSearch.h"
 #include "libsph/search/ScanRange.h"
@@ -13,6 +14,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <mutex>
 #include <random>
 #include <set>
@@ -405,6 +407,52 @@ TEST(MortonCode, EncodeDecodeRoundTrip) {
     ASSERT_EQ(b, y);
     ASSERT_EQ(c, z);
   }
+}
+
+TEST(CellKeys, EveryPathKeysEveryPointAsTheLatticeFloorDoes) {
+  // Points inside, on and across the lattice's bounds: exact cell borders, just
+  // below them, negative, beyond the last coordinate, infinite and NaN.
+  const double origin[3] = {-0.5, 0.25, 1.0};
+  const double inverseCell = 1.0 / 0.0205;
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<Real> u(-2.0f, 3.0f);
+  std::vector<Vec3r> points;
+  for (int i = 0; i < 997; ++i) points.emplace_back(u(rng), u(rng), u(rng));
+  const Real special[] = {-0.5f,
+                          0.25f,
+                          1.0f,
+                          std::nextafter(-0.5f, -1.0f),
+                          Real(-0.5 + 0.0205 * 7),
+                          std::nextafter(Real(-0.5 + 0.0205 * 7), -1.0f),
+                          -1e30f,
+                          1e30f,
+                          std::numeric_limits<Real>::infinity(),
+                          -std::numeric_limits<Real>::infinity(),
+                          std::numeric_limits<Real>::quiet_NaN(),
+                          Real(0.0205 * double(search::kMortonMaxCoord) - 0.5),
+                          Real(0.0205 * (double(search::kMortonMaxCoord) + 1.5) - 0.5)};
+  for (const Real a : special)
+    for (const Real b : special) points.emplace_back(a, b, special[(points.size() * 7) % 13]);
+  std::vector<std::uint64_t> expected(points.size()), got(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    std::uint32_t c[3];
+    for (int a = 0; a < 3; ++a)
+      c[a] = search::clampToLattice(search::latticeFloor((double(points[i][a]) - origin[a]) * inverseCell));
+    expected[i] = search::mortonEncode(c[0], c[1], c[2]);
+  }
+  search::cellKeysScalar(points.data(), 0, points.size(), origin, inverseCell, got.data());
+  EXPECT_EQ(got, expected);
+  search::cellKeys(points.data(), points.size(), origin, inverseCell, got.data());
+  EXPECT_EQ(got, expected);
+#ifdef CASCADE_CELL_KEYS_AVX512
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq"))
+    for (const std::size_t begin : {0, 1, 5}) {
+      std::vector<std::uint64_t> simd(points.size(), 0);
+      search::cellKeysAvx512(points.data(), begin, points.size() - 3, origin, inverseCell, simd.data());
+      for (std::size_t i = begin; i < points.size() - 3; ++i) ASSERT_EQ(simd[i], expected[i]) << i << " at " << points[i].transpose();
+      EXPECT_EQ(simd[points.size() - 2], 0u);  // nothing written past the end
+    }
+#endif
 }
 
 /// The tree's nodes partition the points: every inner node's children split
