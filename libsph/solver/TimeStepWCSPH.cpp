@@ -15,6 +15,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <stdexcept>
 
@@ -236,6 +237,10 @@ Real kernelSumImagesScalar(const KernelConstants& k, const wcsph::PairInput* par
 
 #ifdef CASCADE_WCSPH_AVX2
 #define CASCADE_WCSPH_TARGET __attribute__((target("avx2")))
+#define CASCADE_WCSPH_INLINE __attribute__((target("avx2"), always_inline)) inline
+/// The AVX2 loops compiled again with AVX-512VL's encodings: 32 vector registers
+/// instead of 16, nothing else (the same instructions' results).
+#define CASCADE_WCSPH_AVX512_REGISTERS __attribute__((target("avx2,avx512f,avx512vl")))
 
 CASCADE_WCSPH_TARGET inline float horizontalSum(__m256 v) {
   const __m128 s = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
@@ -254,8 +259,10 @@ CASCADE_WCSPH_TARGET inline __m256 laneMask(std::uint32_t lanes) {
 CASCADE_WCSPH_TARGET inline void loadRecords(const wcsph::PairInput* particles, const std::uint32_t* neighbors,
                                             std::uint32_t lanes, __m256 field[8]) {
   __m256 row[8];
-  for (std::uint32_t l = 0; l < 8; ++l)
-    row[l] = _mm256_load_ps(&particles[neighbors[l < lanes ? l : 0]].x);
+  if (lanes == 8)
+    for (std::uint32_t l = 0; l < 8; ++l) row[l] = _mm256_load_ps(&particles[neighbors[l]].x);
+  else
+    for (std::uint32_t l = 0; l < 8; ++l) row[l] = _mm256_load_ps(&particles[neighbors[l < lanes ? l : 0]].x);
   __m256 t[8], u[8];
   for (int p = 0; p < 4; ++p) {
     t[2 * p] = _mm256_unpacklo_ps(row[2 * p], row[2 * p + 1]);
@@ -277,11 +284,16 @@ CASCADE_WCSPH_TARGET inline void loadRecords(const wcsph::PairInput* particles, 
 CASCADE_WCSPH_TARGET inline void loadPositions(const wcsph::PairInput* particles, const std::uint32_t* neighbors,
                                               std::uint32_t lanes, __m256& x, __m256& y, __m256& z) {
   __m256 row[4];
-  for (std::uint32_t l = 0; l < 4; ++l) {
-    const __m128 low = _mm_load_ps(&particles[neighbors[l < lanes ? l : 0]].x);
-    const __m128 high = _mm_load_ps(&particles[neighbors[l + 4 < lanes ? l + 4 : 0]].x);
-    row[l] = _mm256_insertf128_ps(_mm256_castps128_ps256(low), high, 1);
-  }
+  if (lanes == 8)
+    for (std::uint32_t l = 0; l < 4; ++l)
+      row[l] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(&particles[neighbors[l]].x)),
+                                    _mm_load_ps(&particles[neighbors[l + 4]].x), 1);
+  else
+    for (std::uint32_t l = 0; l < 4; ++l) {
+      const __m128 low = _mm_load_ps(&particles[neighbors[l < lanes ? l : 0]].x);
+      const __m128 high = _mm_load_ps(&particles[neighbors[l + 4 < lanes ? l + 4 : 0]].x);
+      row[l] = _mm256_insertf128_ps(_mm256_castps128_ps256(low), high, 1);
+    }
   const __m256 t0 = _mm256_unpacklo_ps(row[0], row[1]), t1 = _mm256_unpackhi_ps(row[0], row[1]);
   const __m256 t2 = _mm256_unpacklo_ps(row[2], row[3]), t3 = _mm256_unpackhi_ps(row[2], row[3]);
   x = _mm256_shuffle_ps(t0, t2, 0x44);
@@ -332,8 +344,11 @@ CASCADE_WCSPH_TARGET inline __m256 valueShapeAvx2(const KernelConstants& k, __m2
 }
 
 /// forceSumsScalar, eight neighbours at a time (the same terms; sums in another order).
+/// Inlined into forceSumsAvx2 and forceSumsAvx512Registers (the same operations in the
+/// same order, so the same bits; the second compiled with AVX-512VL's 32 registers, so
+/// that no accumulator is spilled to the stack).
 template <KernelPair K>
-CASCADE_WCSPH_TARGET ForceSums forceSumsAvx2(const ForceConstants& k, const wcsph::PairInput* particles,
+CASCADE_WCSPH_INLINE ForceSums forceSumsBody(const ForceConstants& k, const wcsph::PairInput* particles,
                                              const ForceQuery& q, const std::uint32_t* neighbors,
                                              std::uint32_t count) {
   const __m256 qx = _mm256_set1_ps(q.x), qy = _mm256_set1_ps(q.y), qz = _mm256_set1_ps(q.z);
@@ -392,9 +407,9 @@ CASCADE_WCSPH_TARGET ForceSums forceSumsAvx2(const ForceConstants& k, const wcsp
   return sums;
 }
 
-/// kernelSumScalar, eight neighbours at a time.
+/// kernelSumScalar, eight neighbours at a time (inlined as forceSumsBody is).
 template <KernelPair K>
-CASCADE_WCSPH_TARGET Real kernelSumAvx2(const KernelConstants& k, const wcsph::PairInput* particles, const Vec3r& q,
+CASCADE_WCSPH_INLINE Real kernelSumBody(const KernelConstants& k, const wcsph::PairInput* particles, const Vec3r& q,
                                         const std::uint32_t* neighbors, std::uint32_t count) {
   const __m256 qx = _mm256_set1_ps(q.x()), qy = _mm256_set1_ps(q.y()), qz = _mm256_set1_ps(q.z());
   const __m256 h2 = _mm256_set1_ps(k.supportRadius2);
@@ -410,6 +425,32 @@ CASCADE_WCSPH_TARGET Real kernelSumAvx2(const KernelConstants& k, const wcsph::P
     sum = _mm256_add_ps(sum, _mm256_and_ps(valueShapeAvx2<K>(k, r2), within));
   }
   return horizontalSum(sum);
+}
+
+template <KernelPair K>
+CASCADE_WCSPH_TARGET ForceSums forceSumsAvx2(const ForceConstants& k, const wcsph::PairInput* particles,
+                                             const ForceQuery& q, const std::uint32_t* neighbors,
+                                             std::uint32_t count) {
+  return forceSumsBody<K>(k, particles, q, neighbors, count);
+}
+template <KernelPair K>
+CASCADE_WCSPH_AVX512_REGISTERS ForceSums forceSumsAvx512Registers(const ForceConstants& k,
+                                                                  const wcsph::PairInput* particles,
+                                                                  const ForceQuery& q,
+                                                                  const std::uint32_t* neighbors,
+                                                                  std::uint32_t count) {
+  return forceSumsBody<K>(k, particles, q, neighbors, count);
+}
+template <KernelPair K>
+CASCADE_WCSPH_TARGET Real kernelSumAvx2(const KernelConstants& k, const wcsph::PairInput* particles, const Vec3r& q,
+                                        const std::uint32_t* neighbors, std::uint32_t count) {
+  return kernelSumBody<K>(k, particles, q, neighbors, count);
+}
+template <KernelPair K>
+CASCADE_WCSPH_AVX512_REGISTERS Real kernelSumAvx512Registers(const KernelConstants& k,
+                                                             const wcsph::PairInput* particles, const Vec3r& q,
+                                                             const std::uint32_t* neighbors, std::uint32_t count) {
+  return kernelSumBody<K>(k, particles, q, neighbors, count);
 }
 
 /// kernelSumImagesScalar, eight neighbours at a time: one load of the neighbours'
@@ -466,13 +507,22 @@ bool wcsphUsesAvx2() {
   static const bool supported = __builtin_cpu_supports("avx2");
   return supported && gAvx2Allowed.load(std::memory_order_relaxed);
 }
+
+/// Whether the AVX2 loops run in their AVX-512VL build (CASCADE_NO_AVX512 set: never).
+bool wcsphUsesAvx512Registers() {
+  static const bool supported = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+                                std::getenv("CASCADE_NO_AVX512") == nullptr;
+  return supported;
+}
 #endif
 
 template <KernelPair K>
 ForceSums forceSums(const ForceConstants& k, const wcsph::PairInput* particles, const ForceQuery& q,
                     const std::uint32_t* neighbors, std::uint32_t count) {
 #ifdef CASCADE_WCSPH_AVX2
-  if (wcsphUsesAvx2()) return forceSumsAvx2<K>(k, particles, q, neighbors, count);
+  if (wcsphUsesAvx2())
+    return wcsphUsesAvx512Registers() ? forceSumsAvx512Registers<K>(k, particles, q, neighbors, count)
+                                      : forceSumsAvx2<K>(k, particles, q, neighbors, count);
 #endif
   return forceSumsScalar<K>(k, particles, q, neighbors, count);
 }
@@ -492,7 +542,9 @@ template <KernelPair K>
 Real kernelSum(const KernelConstants& k, const wcsph::PairInput* particles, const Vec3r& q,
                const std::uint32_t* neighbors, std::uint32_t count) {
 #ifdef CASCADE_WCSPH_AVX2
-  if (wcsphUsesAvx2()) return kernelSumAvx2<K>(k, particles, q, neighbors, count);
+  if (wcsphUsesAvx2())
+    return wcsphUsesAvx512Registers() ? kernelSumAvx512Registers<K>(k, particles, q, neighbors, count)
+                                      : kernelSumAvx2<K>(k, particles, q, neighbors, count);
 #endif
   return kernelSumScalar<K>(k, particles, q, neighbors, count);
 }
