@@ -238,8 +238,9 @@ Real kernelSumImagesScalar(const KernelConstants& k, const wcsph::PairInput* par
 #ifdef CASCADE_WCSPH_AVX2
 #define CASCADE_WCSPH_TARGET __attribute__((target("avx2")))
 #define CASCADE_WCSPH_INLINE __attribute__((target("avx2"), always_inline)) inline
-/// The AVX2 loops compiled again with AVX-512VL's encodings: 32 vector registers
-/// instead of 16, nothing else (the same instructions' results).
+/// The force loop compiled again with AVX-512VL's encodings: 32 vector registers
+/// instead of 16, nothing else (the same instructions' results). (The density
+/// loops spill nothing, or keep their image sums in memory either way: no gain.)
 #define CASCADE_WCSPH_AVX512_REGISTERS __attribute__((target("avx2,avx512f,avx512vl")))
 
 CASCADE_WCSPH_TARGET inline float horizontalSum(__m256 v) {
@@ -407,9 +408,9 @@ CASCADE_WCSPH_INLINE ForceSums forceSumsBody(const ForceConstants& k, const wcsp
   return sums;
 }
 
-/// kernelSumScalar, eight neighbours at a time (inlined as forceSumsBody is).
+/// kernelSumScalar, eight neighbours at a time.
 template <KernelPair K>
-CASCADE_WCSPH_INLINE Real kernelSumBody(const KernelConstants& k, const wcsph::PairInput* particles, const Vec3r& q,
+CASCADE_WCSPH_TARGET Real kernelSumAvx2(const KernelConstants& k, const wcsph::PairInput* particles, const Vec3r& q,
                                         const std::uint32_t* neighbors, std::uint32_t count) {
   const __m256 qx = _mm256_set1_ps(q.x()), qy = _mm256_set1_ps(q.y()), qz = _mm256_set1_ps(q.z());
   const __m256 h2 = _mm256_set1_ps(k.supportRadius2);
@@ -440,17 +441,6 @@ CASCADE_WCSPH_AVX512_REGISTERS ForceSums forceSumsAvx512Registers(const ForceCon
                                                                   const std::uint32_t* neighbors,
                                                                   std::uint32_t count) {
   return forceSumsBody<K>(k, particles, q, neighbors, count);
-}
-template <KernelPair K>
-CASCADE_WCSPH_TARGET Real kernelSumAvx2(const KernelConstants& k, const wcsph::PairInput* particles, const Vec3r& q,
-                                        const std::uint32_t* neighbors, std::uint32_t count) {
-  return kernelSumBody<K>(k, particles, q, neighbors, count);
-}
-template <KernelPair K>
-CASCADE_WCSPH_AVX512_REGISTERS Real kernelSumAvx512Registers(const KernelConstants& k,
-                                                             const wcsph::PairInput* particles, const Vec3r& q,
-                                                             const std::uint32_t* neighbors, std::uint32_t count) {
-  return kernelSumBody<K>(k, particles, q, neighbors, count);
 }
 
 /// kernelSumImagesScalar, eight neighbours at a time: one load of the neighbours'
@@ -508,11 +498,13 @@ bool wcsphUsesAvx2() {
   return supported && gAvx2Allowed.load(std::memory_order_relaxed);
 }
 
-/// Whether the AVX2 loops run in their AVX-512VL build (CASCADE_NO_AVX512 set: never).
+/// Whether the force loop runs in its AVX-512VL build (CASCADE_NO_AVX512 set: never).
+std::atomic<bool> gAvx512Allowed{true};
+
 bool wcsphUsesAvx512Registers() {
   static const bool supported = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
                                 std::getenv("CASCADE_NO_AVX512") == nullptr;
-  return supported;
+  return supported && gAvx512Allowed.load(std::memory_order_relaxed);
 }
 #endif
 
@@ -542,9 +534,7 @@ template <KernelPair K>
 Real kernelSum(const KernelConstants& k, const wcsph::PairInput* particles, const Vec3r& q,
                const std::uint32_t* neighbors, std::uint32_t count) {
 #ifdef CASCADE_WCSPH_AVX2
-  if (wcsphUsesAvx2())
-    return wcsphUsesAvx512Registers() ? kernelSumAvx512Registers<K>(k, particles, q, neighbors, count)
-                                      : kernelSumAvx2<K>(k, particles, q, neighbors, count);
+  if (wcsphUsesAvx2()) return kernelSumAvx2<K>(k, particles, q, neighbors, count);
 #endif
   return kernelSumScalar<K>(k, particles, q, neighbors, count);
 }
@@ -1203,6 +1193,16 @@ bool allowVectorPairLoops(bool allowed) {
 #ifdef CASCADE_WCSPH_AVX2
   gAvx2Allowed.store(allowed);
   return wcsphUsesAvx2();
+#else
+  (void)allowed;
+  return false;
+#endif
+}
+
+bool allowAvx512PairLoops(bool allowed) {
+#ifdef CASCADE_WCSPH_AVX2
+  gAvx512Allowed.store(allowed);
+  return wcsphUsesAvx2() && wcsphUsesAvx512Registers();
 #else
   (void)allowed;
   return false;

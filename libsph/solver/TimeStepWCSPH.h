@@ -136,6 +136,10 @@ void addBoundaryAcceleration(StepContext& context, const Workspace& workspace, R
 /// processor has it; default) or must use the scalar loops (tests compare the
 /// two). Returns whether the vector loops are used from now on.
 bool allowVectorPairLoops(bool allowed);
+/// Whether the vector force loop may run in its AVX-512VL build (32 registers, the
+/// same bits; default, if the processor has it) or must use the AVX2 one (tests
+/// compare the two). Returns whether the AVX-512VL build is used from now on.
+bool allowAvx512PairLoops(bool allowed);
 /// SEED (12)-(14): v += a dt, x += v dt. Returns the largest |a|.
 Real integrateSymplecticEuler(StepContext& context, Real dt);
 } // namespace wcsph
