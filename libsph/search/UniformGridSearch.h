@@ -19,7 +19,9 @@
 /// query() walks the queries cell by cell: the 27 cells around a query's cell
 /// are looked up once per cell, then every point of them is tested with
 /// squaredDistance() (the exact relation of NeighborSearch.h, so the sets equal
-/// brute force). Queries may be another point set (fluid against boundary
+/// brute force). A self query with the build radius first packs the 27 cells'
+/// points within the radius of the box around the cell's queries into one run
+/// (in place order: the same lists) and scans that. Queries may be another point set (fluid against boundary
 /// particles) and may have their own radius (gather form); a radius larger
 /// than the build radius is allowed (slower: more cells are visited).
 ///

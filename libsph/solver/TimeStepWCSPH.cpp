@@ -346,8 +346,8 @@ CASCADE_WCSPH_TARGET inline __m256 valueShapeAvx2(const KernelConstants& k, __m2
 
 /// forceSumsScalar, eight neighbours at a time (the same terms; sums in another order).
 /// Inlined into forceSumsAvx2 and forceSumsAvx512Registers (the same operations in the
-/// same order, so the same bits; the second compiled with AVX-512VL's 32 registers, so
-/// that no accumulator is spilled to the stack).
+/// same order, so the same bits; the second compiled with AVX-512VL's 32 registers:
+/// 17 stack references in the loop instead of 59).
 template <KernelPair K>
 CASCADE_WCSPH_INLINE ForceSums forceSumsBody(const ForceConstants& k, const wcsph::PairInput* particles,
                                              const ForceQuery& q, const std::uint32_t* neighbors,
