@@ -474,39 +474,6 @@ struct GridQuery {
         const Real radius = radii ? radii[q] : grid.mRadius;
         const Real radius2 = radius * radius;
         const std::uint32_t exclude = excludeSelf ? q : kNoIndex;
-        if (alwaysStencil) {
-          // Self query with the build radius: the 27 cells hold every neighbour.
-          if (!haveStencil) {
-            makeStencil(groupKey[g], stencil);
-            haveStencil = true;
-          }
-          if (s + 1 < groupStart[g + 1]) {
-            // Two queries of the cell at once: the points are loaded once for both.
-            const std::uint32_t q2 = queryOrder[s + 1];
-            const Real a[3] = {qx, qy, qz}, b[3] = {xs[s + 1], ys[s + 1], zs[s + 1]};
-            std::uint32_t* out = writer.reserve(2 * (stencil.candidates + kScanOverwrite));
-            std::uint32_t* out2 = out + stencil.candidates + kScanOverwrite;
-            std::uint32_t found = 0, found2 = 0;
-            for (int r = 0; r < stencil.mergedCount; ++r)
-              Scan::scanPair(xs, ys, zs, order, stencil.merged[r].begin, stencil.merged[r].end, a, b, radius2,
-                             exclude, excludeSelf ? q2 : kNoIndex, out, out2, found, found2);
-            writer.advance(found);
-            writer.finishQuery(q);
-            Scan::moveDown(out + found, out2, found2);
-            writer.advance(found2);
-            writer.finishQuery(q2);
-            ++s;
-            continue;
-          }
-          std::uint32_t* out = writer.reserve(stencil.candidates);
-          std::uint32_t found = 0;
-          for (int r = 0; r < stencil.mergedCount; ++r)
-            found += Scan::scan(xs, ys, zs, order, stencil.merged[r].begin, stencil.merged[r].end,
-                                qx, qy, qz, radius2, exclude, out + found);
-          writer.advance(found);
-          writer.finishQuery(q);
-          continue;
-        }
         const double reach = std::fabs(double(radius)) * (1.0 + kRangeMargin) + kRangeSlack;
         const double qpos[3] = {double(qx), double(qy), double(qz)};
         std::int64_t lo[3], hi[3], own[3];

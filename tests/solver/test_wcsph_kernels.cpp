@@ -39,6 +39,17 @@ struct VectorLoopsGuard {
   }
 };
 
+/// The pair loops' comparison case: the Martin & Moyce column at a / 10 with the given
+/// kernels and pressure force, after `steps` steps.
+auto damBreakAfter(KernelPair pair, PressureForce force, int steps) {
+  SimulationSettings settings = damBreakSettings(kMartinMoyceA / 10);
+  settings.solver.kernels = pair;
+  settings.solver.pressureForce = force;
+  auto sim = makeDamBreak(settings);
+  for (int step = 0; step < steps; ++step) sim->step();
+  return sim;
+}
+
 } // namespace
 
 // A closed box filled with the rest lattice of the fluid spacing, no gravity:
@@ -81,11 +92,7 @@ TEST(WcsphKernels, VectorAndScalarPairLoopsAgree) {
       std::vector<Real> densities[2];
       for (int scalar = 0; scalar < 2; ++scalar) {
         wcsph::allowVectorPairLoops(scalar == 0);
-        SimulationSettings settings = damBreakSettings(kMartinMoyceA / 10);
-        settings.solver.kernels = pair;
-        settings.solver.pressureForce = force;
-        auto sim = makeDamBreak(settings);
-        for (int step = 0; step < 40; ++step) sim->step();
+        const auto sim = damBreakAfter(pair, force, 40);
         positions[scalar] = sim->particles().position;
         densities[scalar] = sim->particles().density;
       }
@@ -113,11 +120,7 @@ TEST(WcsphKernels, Avx512RegisterBuildGivesTheAvx2BuildsBits) {
       std::vector<Vec3r> positions[2], velocities[2];
       for (int build = 0; build < 2; ++build) {
         wcsph::allowAvx512PairLoops(build == 0);
-        SimulationSettings settings = damBreakSettings(kMartinMoyceA / 10);
-        settings.solver.kernels = pair;
-        settings.solver.pressureForce = force;
-        auto sim = makeDamBreak(settings);
-        for (int step = 0; step < 60; ++step) sim->step();
+        const auto sim = damBreakAfter(pair, force, 60);
         positions[build] = sim->particles().position;
         velocities[build] = sim->particles().velocity;
       }
