@@ -30,17 +30,37 @@ inline Real squaredDistance(const Vec3r& a, const Vec3r& b) {
 }
 
 /// Neighbour lists in compressed-row form: the neighbours of query i are
-/// indices[offsets[i] .. offsets[i+1]). Order within a list is unspecified.
+/// indices[offsets[i] .. endOffset(i)). Order within a list is unspecified.
+/// Packed (ends empty), list i ends where list i + 1 begins, at offsets[i + 1].
+/// With room between lists (ends holds each list's end), a search writes every
+/// list straight into place, with no copy (search/ListAssembly.h); indices then
+/// also holds unused entries, and offsets[size()] is indices.size(). `order`
+/// then says in which order the lists lie in memory (the search's own order,
+/// which drifts from the particles' as they move between reorders), so that a
+/// pass over every list can read them front to back (solver/ListOrder.h).
 struct NeighborLists {
   std::vector<std::uint32_t> offsets{0};
+  std::vector<std::uint32_t> ends;   ///< empty: packed; else list i ends at indices[ends[i]]
+  std::vector<std::uint32_t> order;  ///< empty: lists in query order; else the k-th list in memory is order[k]'s
   std::vector<std::uint32_t> indices;
+  std::size_t pairs = 0;  ///< the lists' total length when not packed
 
   std::size_t size() const { return offsets.size() - 1; }
-  std::uint32_t count(std::size_t i) const { return offsets[i + 1] - offsets[i]; }
+  std::uint32_t endOffset(std::size_t i) const { return ends.empty() ? offsets[i + 1] : ends[i]; }
+  std::uint32_t count(std::size_t i) const { return endOffset(i) - offsets[i]; }
   const std::uint32_t* begin(std::size_t i) const { return indices.data() + offsets[i]; }
-  const std::uint32_t* end(std::size_t i) const { return indices.data() + offsets[i + 1]; }
-  std::size_t totalCount() const { return indices.size(); }
-  void clear() { offsets.assign(1, 0); indices.clear(); }
+  const std::uint32_t* end(std::size_t i) const { return indices.data() + endOffset(i); }
+  /// The number of neighbour entries (pairs) in all lists.
+  std::size_t totalCount() const { return ends.empty() ? indices.size() : pairs; }
+  void clear() { setEmpty(0); }
+  /// `count` empty lists.
+  void setEmpty(std::size_t count) {
+    offsets.assign(count + 1, 0);
+    ends.clear();
+    order.clear();
+    indices.clear();
+    pairs = 0;
+  }
 };
 
 /// A neighbour search method. build() indexes a point set; query() finds, for

@@ -33,6 +33,8 @@ void assembleNeighborLists(const std::vector<std::vector<std::uint32_t>>& perQue
                            NeighborLists& out) {
   out.offsets.resize(perQuery.size() + 1);
   out.offsets[0] = 0;
+  out.ends.clear();
+  out.order.clear();
   for (std::size_t q = 0; q < perQuery.size(); ++q)
     out.offsets[q + 1] = out.offsets[q] + static_cast<std::uint32_t>(perQuery[q].size());
   out.indices.resize(out.offsets.back());

@@ -449,8 +449,7 @@ CASCADE_SEARCH_AVX2_TARGET void runOctreeChunkAvx2(const OctreeQuery& job, std::
 void OctreeSearch::query(const Vec3r* queries, std::size_t count, const Real* supportRadii,
                          bool excludeSelf, NeighborLists& out) const {
   if (count == 0 || mCount == 0) {
-    out.offsets.assign(count + 1, 0u);
-    out.indices.clear();
+    out.setEmpty(count);
     return;
   }
   if (count >= std::size_t(kNoIndex))

@@ -601,11 +601,8 @@ void UniformGridSearch::groupQueries(const Vec3r* queries, std::size_t count, Qu
 
 void UniformGridSearch::query(const Vec3r* queries, std::size_t count, const Real* supportRadii,
                               bool excludeSelf, NeighborLists& out) const {
-  out.offsets.resize(count + 1);
-  out.offsets[0] = 0;
   if (count == 0 || mCount == 0) {
-    std::fill(out.offsets.begin(), out.offsets.end(), 0u);
-    out.indices.clear();
+    out.setEmpty(count);
     return;
   }
   std::unique_lock<std::mutex> lock(mScratchMutex, std::try_to_lock);

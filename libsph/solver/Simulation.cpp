@@ -8,12 +8,10 @@
 #include "libsph/io/BinaryPod.h"
 #include "libsph/solver/DomainPartition.h"
 #include "libsph/solver/ReactionSums.h"
-#include "libsph/search/MortonCode.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
-#include <tbb/parallel_sort.h>
 
 #include <chrono>
 #include <cmath>
@@ -438,25 +436,11 @@ double Simulation::nextTimeStep() {
 void Simulation::reorder() {
   const std::size_t n = mParticles.size();
   if (n < 2) return;
-  Vec3r lo = Vec3r::Constant(std::numeric_limits<Real>::max());
-  for (const Vec3r& p : mParticles.position)
-    if (p.allFinite()) lo = lo.cwiseMin(p);
-  const double inv = 1.0 / double(mConstants.supportRadius);
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(n);
-  tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
-    const Vec3r& p = mParticles.position[i];
-    std::uint64_t c[3];
-    for (int a = 0; a < 3; ++a) {
-      const double f = (double(p[a]) - double(lo[a])) * inv;
-      c[a] = (f >= 0 && f < 2097151.0) ? std::uint64_t(f) : 2097151ULL;
-    }
-    keys[i] = {search::mortonSpreadBits(std::uint32_t(c[0])) | (search::mortonSpreadBits(std::uint32_t(c[1])) << 1) |
-                   (search::mortonSpreadBits(std::uint32_t(c[2])) << 2),
-               std::uint32_t(i)};
-  });
-  tbb::parallel_sort(keys.begin(), keys.end());
-  std::vector<std::size_t> order(n);
-  for (std::size_t k = 0; k < n; ++k) order[k] = keys[k].second;
+  // The grid search's own curve (its cells of h, by cell and then index): right after a
+  // reorder, particles are stored in the order the search visits them, and the search
+  // writes each chunk's lists in that order (search/ListAssembly.h), so the passes over
+  // the lists read them front to back.
+  const std::vector<std::size_t> order = zOrderPermutation(mParticles.position.data(), n, mConstants.supportRadius);
   mParticles.permute(order);
   mTimeStep->permute(order);
 }

@@ -505,7 +505,7 @@ void TimeStepDFSPH::prepare(StepContext& c) {
 
   // Pair terms: the neighbours strictly inside the support (grad W != 0), packed at the
   // start of each neighbour-list row; the rest of the row is unused.
-  mPairs.resize(nl.totalCount() + 1);  // + 1: the F16C loops read two bytes past a row's last record
+  mPairs.resize(mPairOffsets[nl.size()] + 1);  // + 1: the F16C loops read two bytes past a row's last record
   mPairCount.resize(n);
   mGradientSum.resize(n);
   mFactor.resize(n);
@@ -541,13 +541,13 @@ void TimeStepDFSPH::prepare(StepContext& c) {
     Real gradientSquares = 0;
     Real rate = 0;  // sum_j c_ij v_j . (x_i - x_j)
     Vec3r viscous = Vec3r::Zero();
-    PairTerm* pair = mPairs.data() + nl.offsets[i];
+    PairTerm* pair = mPairs.data() + mPairOffsets[i];
     std::uint32_t count = 0, stored = 0;
 #ifdef CASCADE_DFSPH_AVX2
     if (avx2) {
       PairSums sums;
       fluidPairsAvx2(xi, vi, particles.position.data(), velocity.data(), nl.indices.data() + nl.offsets[i],
-                     nl.offsets[i + 1] - nl.offsets[i], pairConstants, pair, sums);
+                     nl.count(i), pairConstants, pair, sums);
       density += sums.density;
       gradientSum = sums.gradientSum;
       gradientSquares = sums.gradientSquares;
@@ -557,7 +557,7 @@ void TimeStepDFSPH::prepare(StepContext& c) {
       count = sums.inside;
     }
 #endif
-    for (std::uint32_t k = avx2 ? nl.offsets[i + 1] : nl.offsets[i]; k < nl.offsets[i + 1]; ++k) {
+    for (std::uint32_t k = avx2 ? nl.endOffset(i) : nl.offsets[i]; k < nl.endOffset(i); ++k) {
       const std::uint32_t j = nl.indices[k];
       const Vec3r r = xi - particles.position[j];
       const Real r2 = r.squaredNorm();
@@ -890,7 +890,13 @@ void TimeStepDFSPH::advance(StepContext& c, Real dt) {
   mGlobalCount = std::max(overRanks(double(mOwned)), 1.0);
   if (n == 0 && mPartition == nullptr) return;
   const SolverSettings& solver = c.settings.solver;
-  mPairOffsets = c.neighbors.offsets.data();
+  // Pair rows in particle order, packed (the search's lists may lie in its own order with
+  // room between them): every operator product streams them front to back.
+  const NeighborLists& lists = c.neighbors;
+  mRowOffsets.resize(lists.size() + 1);
+  mRowOffsets[0] = 0;
+  for (std::size_t i = 0; i < lists.size(); ++i) mRowOffsets[i + 1] = mRowOffsets[i] + lists.count(i);
+  mPairOffsets = mRowOffsets.data();
 
   auto start = Clock::now();
   prepare(c);

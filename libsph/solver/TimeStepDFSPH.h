@@ -188,7 +188,8 @@ private:
     Vec3r value() const { return Vec3r(floatFromHalf(gradient[0]), floatFromHalf(gradient[1]), floatFromHalf(gradient[2])); }
   };
 #pragma pack(pop)
-  std::vector<PairTerm> mPairs;  // row i at the neighbour list's offsets[i], mPairCount[i] used; one record of padding
+  std::vector<PairTerm> mPairs;  // row i at mPairOffsets[i], mPairCount[i] used; one record of padding
+  std::vector<std::uint32_t> mRowOffsets;  // row i's room: its neighbour list's length, rows in particle order
   bool mHalfInstructions = false;  // F16C (with AVX2): the products convert 4 halves an instruction
   const std::uint32_t* mPairOffsets = nullptr;
   const Vec3r* mPosition = nullptr;  // the particles' positions during the step

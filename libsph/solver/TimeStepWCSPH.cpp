@@ -1,4 +1,5 @@
 #include "libsph/solver/TimeStepWCSPH.h"
+#include "libsph/solver/ListOrder.h"
 
 #include "libsph/Kernels.h"
 #include "libsph/boundary/BoundaryParticles.h"
@@ -837,19 +838,17 @@ void computeFluidDensity(StepContext& c, Workspace& workspace) {
   const NeighborLists& nl = c.neighbors;
   const bool mirrors = !c.boundary.mirrors().empty();
   // The owned particles (over MPI ranks the halo's densities come from their owners).
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, c.ownedCount(), 512), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      if (!mirrors || c.boundary.mirrorCount(i) == 0) {
-        const Real sum = kernelSum(kernel, records, particles.position[i], nl.begin(i), nl.count(i));
-        particles.density[i] = scale * kernel.valueCoeff * (self + sum);  // SEED (4)
-        continue;
-      }
-      // The boundary layer: the fluid and its type II images in one pass.
-      Real sum = 0;
-      const Real images = densityWithImages(c, kernel, records, std::uint32_t(i), keep2, workspace, &sum);
+  forEachInListOrder(nl, c.ownedCount(), 512, [&](std::size_t i) {
+    if (!mirrors || c.boundary.mirrorCount(i) == 0) {
+      const Real sum = kernelSum(kernel, records, particles.position[i], nl.begin(i), nl.count(i));
       particles.density[i] = scale * kernel.valueCoeff * (self + sum);  // SEED (4)
-      particles.density[i] += scale * kernel.valueCoeff * images;
+      return;
     }
+    // The boundary layer: the fluid and its type II images in one pass.
+    Real sum = 0;
+    const Real images = densityWithImages(c, kernel, records, std::uint32_t(i), keep2, workspace, &sum);
+    particles.density[i] = scale * kernel.valueCoeff * (self + sum);  // SEED (4)
+    particles.density[i] += scale * kernel.valueCoeff * images;
   });
 }
 
@@ -909,21 +908,19 @@ void computeDensityRate(StepContext& c, Workspace& workspace) {
   const Vec3r hydrostatic = (c.settings.fluid.restDensity / c.constants.stiffness) * c.settings.solver.gravity;
   const PairInput* records = workspace.particles.data();
   const NeighborLists& nl = c.neighbors;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const PairInput& p = records[i];
-      Real divergence = 0, laplacian = 0;
-      for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j) {
-        const PairInput& q = records[*j];
-        const Vec3r r(p.x - q.x, p.y - q.y, p.z - q.z);
-        const Real r2 = r.squaredNorm();
-        if (r2 >= h2 || r2 <= Real(0)) continue;
-        const Real g = densityGradient(kernel, r2);  // grad W_ij = g x_ij
-        divergence += g * ((p.vx - q.vx) * r.x() + (p.vy - q.vy) * r.y() + (p.vz - q.vz) * r.z());
-        laplacian += g * (p.density - q.density - hydrostatic.dot(r)) / q.density;
-      }
-      rate[i] = mass * (divergence + diffusion * laplacian);
+  forEachInListOrder(nl, n, 512, [&](std::size_t i) {
+    const PairInput& p = records[i];
+    Real divergence = 0, laplacian = 0;
+    for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j) {
+      const PairInput& q = records[*j];
+      const Vec3r r(p.x - q.x, p.y - q.y, p.z - q.z);
+      const Real r2 = r.squaredNorm();
+      if (r2 >= h2 || r2 <= Real(0)) continue;
+      const Real g = densityGradient(kernel, r2);  // grad W_ij = g x_ij
+      divergence += g * ((p.vx - q.vx) * r.x() + (p.vy - q.vy) * r.y() + (p.vz - q.vz) * r.z());
+      laplacian += g * (p.density - q.density - hydrostatic.dot(r)) / q.density;
     }
+    rate[i] = mass * (divergence + diffusion * laplacian);
   });
   // The mirror images (as computeFluidDensity sums them): the same continuity sum, over
   // the mirror pairs (collectMirrorNeighbors).
@@ -977,15 +974,13 @@ void computeFluidAcceleration(StepContext& c, const Workspace& workspace) {
   std::vector<Vec3r>& acceleration = c.acceleration;
   acceleration.resize(particles.size());
   const PairInput* records = workspace.particles.data();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, c.ownedCount(), 512), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const PairInput& p = records[i];
-      const Real invRhoi = Real(1) / p.density;
-      const ForceQuery q{p.x, p.y, p.z, p.vx, p.vy, p.vz, p.pressure, p.density, invRhoi};
-      const ForceSums sums = forceSums(k, records, q, nl.begin(i), nl.count(i));
-      // SEED (6) / rho_i: mu m (v_j - v_i) / (rho_j rho_i) lap W_visc
-      acceleration[i] = gravity + sums.pressure - (viscosityCoeff * invRhoi) * sums.viscous;
-    }
+  forEachInListOrder(nl, c.ownedCount(), 512, [&](std::size_t i) {
+    const PairInput& p = records[i];
+    const Real invRhoi = Real(1) / p.density;
+    const ForceQuery q{p.x, p.y, p.z, p.vx, p.vy, p.vz, p.pressure, p.density, invRhoi};
+    const ForceSums sums = forceSums(k, records, q, nl.begin(i), nl.count(i));
+    // SEED (6) / rho_i: mu m (v_j - v_i) / (rho_j rho_i) lap W_visc
+    acceleration[i] = gravity + sums.pressure - (viscosityCoeff * invRhoi) * sums.viscous;
   });
 }
 

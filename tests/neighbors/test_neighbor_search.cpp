@@ -3,19 +3,23 @@
 #include "libsph/NeighborSearch.h"
 #include "libsph/Particles.h"
 #include "libsph/search/CellKeys.h"
+#include "libsph/search/ListAssembly.h"
 #include "libsph/search/MortonCode.h"
 #include "libsph/search/OctreeSearch.h"
 #include "libsph/search/ScanRange.h"
 #include "libsph/search/UniformGridSearch.h"
+#include "libsph/solver/ListOrder.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <mutex>
+#include <numeric>
 #include <random>
 #include <set>
 
@@ -34,6 +38,13 @@ Sets toSets(const NeighborLists& lists) {
   return sets;
 }
 
+/// The lists in order, each as the search wrote it (whatever room lies between them).
+Sets inOrder(const NeighborLists& lists) {
+  Sets sets(lists.size());
+  for (std::size_t q = 0; q < lists.size(); ++q) sets[q].assign(lists.begin(q), lists.end(q));
+  return sets;
+}
+
 Sets bruteSets(const std::vector<Vec3r>& points, const std::vector<Vec3r>& queries, Real radius,
                const std::vector<Real>* radii, bool excludeSelf) {
   BruteForceSearch brute;
@@ -49,6 +60,23 @@ std::unique_ptr<NeighborSearch> makeSearch(const std::string& method) {
   return makeNeighborSearch(method);
 }
 
+/// Every list lies inside `indices`, no two share an entry, and totalCount() is their
+/// total length (packed or with room between them).
+void expectDisjointRows(const NeighborLists& lists) {
+  ASSERT_TRUE(lists.ends.empty() || lists.ends.size() == lists.size());
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> rows;
+  std::size_t total = 0;
+  for (std::size_t q = 0; q < lists.size(); ++q) {
+    ASSERT_LE(lists.offsets[q], lists.endOffset(q)) << q;
+    ASSERT_LE(lists.endOffset(q), lists.indices.size()) << q;
+    if (lists.count(q)) rows.emplace_back(lists.offsets[q], lists.endOffset(q));
+    total += lists.count(q);
+  }
+  std::sort(rows.begin(), rows.end());
+  for (std::size_t r = 1; r < rows.size(); ++r) ASSERT_LE(rows[r - 1].second, rows[r].first) << r;
+  EXPECT_EQ(lists.totalCount(), total);
+}
+
 /// Compares a method against brute force, list by list, and checks the CSR shape.
 void expectSameAsBrute(const std::string& method, const std::vector<Vec3r>& points,
                        const std::vector<Vec3r>* otherQueries, Real radius,
@@ -61,8 +89,8 @@ void expectSameAsBrute(const std::string& method, const std::vector<Vec3r>& poin
   search->query(queries.data(), queries.size(), radii ? radii->data() : nullptr,
                 otherQueries ? false : excludeSelf, lists);
   ASSERT_EQ(lists.offsets.size(), queries.size() + 1);
-  ASSERT_EQ(lists.offsets.front(), 0u);
   ASSERT_EQ(lists.offsets.back(), lists.indices.size());
+  expectDisjointRows(lists);
   const Sets got = toSets(lists);
   std::size_t total = 0;
   for (std::size_t q = 0; q < queries.size(); ++q) {
@@ -250,8 +278,7 @@ TEST(UniformGridSearch, IncrementalRebuildMatchesFullRebuild) {
   incremental.query(particles.position.data(), particles.size(), nullptr, true, a);
   full.query(particles.position.data(), particles.size(), nullptr, true, b);
   // Bit for bit the same lists, order within each list included.
-  EXPECT_EQ(a.offsets, b.offsets);
-  EXPECT_EQ(a.indices, b.indices);
+  EXPECT_EQ(inOrder(a), inOrder(b));
   // And after a second step that moves particles between cells the other way.
   for (auto& p : particles.position) p -= Vec3r(step(rng), step(rng), step(rng));
   incremental.build(particles.position.data(), particles.size(), 0.0203f);
@@ -260,7 +287,7 @@ TEST(UniformGridSearch, IncrementalRebuildMatchesFullRebuild) {
   EXPECT_EQ(incremental.zOrder(), full.zOrder());
   incremental.query(particles.position.data(), particles.size(), nullptr, true, a);
   full.query(particles.position.data(), particles.size(), nullptr, true, b);
-  EXPECT_EQ(a.indices, b.indices);
+  EXPECT_EQ(inOrder(a), inOrder(b));
 }
 
 TEST(UniformGridSearch, IncrementalRebuildFromThePreviousOrderIsCanonical) {
@@ -282,7 +309,7 @@ TEST(UniformGridSearch, IncrementalRebuildFromThePreviousOrderIsCanonical) {
     NeighborLists a, b;
     incremental.query(points.data(), points.size(), nullptr, true, a);
     full.query(points.data(), points.size(), nullptr, true, b);
-    ASSERT_EQ(a.indices, b.indices) << frame;
+    ASSERT_EQ(inOrder(a), inOrder(b)) << frame;
     ASSERT_EQ(toSets(a), bruteSets(points, points, 0.0203f, nullptr, true)) << frame;
   }
 }
@@ -598,6 +625,88 @@ std::pair<std::vector<std::uint32_t>, std::vector<std::uint32_t>> scanPairWith(c
 }
 
 } // namespace
+
+TEST(ListAssembly, ListsInTheirRegionsSpilledOrBothAreTheSameListsInTheSameOrder) {
+  // Chunks of uneven size over a shuffled query order; list lengths 0-120, longer in
+  // some chunks (dense water beside spray); a list written in one or two parts.
+  constexpr std::size_t kQueries = 6000;
+  std::vector<std::uint32_t> queryOrder(kQueries);
+  std::iota(queryOrder.begin(), queryOrder.end(), 0u);
+  std::shuffle(queryOrder.begin(), queryOrder.end(), std::mt19937(5));
+  std::vector<std::uint32_t> chunkStart{0};
+  std::mt19937 rng(6);
+  while (chunkStart.back() < kQueries)
+    chunkStart.push_back(std::min<std::uint32_t>(std::uint32_t(kQueries), chunkStart.back() + 1 + rng() % 700));
+  std::vector<std::uint32_t> length(kQueries);
+  for (std::size_t c = 0; c + 1 < chunkStart.size(); ++c)
+    for (std::uint32_t s = chunkStart[c]; s < chunkStart[c + 1]; ++s)
+      length[queryOrder[s]] = (c % 3 == 0) ? 60 + rng() % 61 : rng() % 40;
+  const auto entry = [](std::uint32_t q, std::uint32_t k) { return q * 2654435761u + k; };
+  Sets expected(kQueries);
+  std::size_t total = 0;
+  for (std::uint32_t q = 0; q < kQueries; ++q) {
+    for (std::uint32_t k = 0; k < length[q]; ++k) expected[q].push_back(entry(q, k));
+    total += length[q];
+  }
+  const auto process = [&](std::size_t, std::uint32_t placeBegin, std::uint32_t placeEnd,
+                           search::ChunkWriter& writer) {
+    for (std::uint32_t s = placeBegin; s < placeEnd; ++s) {
+      const std::uint32_t q = queryOrder[s], n = length[q], first = q % 2 ? n / 2 : n;
+      std::uint32_t* out = writer.reserve(first);
+      for (std::uint32_t k = 0; k < first; ++k) out[k] = entry(q, k);
+      // The vector scans store up to 16 entries past what they keep.
+      for (std::uint32_t k = first; k < first + 16; ++k) out[k] = 0xdeadbeefu;
+      writer.advance(first);
+      if (first < n) {  // a second part: the open list moves with it if the region fills
+        out = writer.reserve(n - first);
+        for (std::uint32_t k = first; k < n; ++k) out[k - first] = entry(q, k);
+        writer.advance(n - first);
+      }
+      writer.finishQuery(q);
+    }
+  };
+  const double mean = double(total) / kQueries;
+  // No room (every list spilled), too little room (some spilled), room enough.
+  for (double lastMean : {0.0, 0.5 * mean, 0.85 * mean, mean, 4 * mean}) {
+    search::ListScratch scratch;
+    scratch.meanCount = lastMean;
+    NeighborLists lists;
+    lists.indices.assign(100, 7u);  // a previous call's entries
+    search::assembleLists(kQueries, queryOrder.data(), chunkStart, scratch, lists, process);
+    ASSERT_EQ(lists.size(), kQueries) << lastMean;
+    EXPECT_EQ(inOrder(lists), expected) << lastMean;
+    expectDisjointRows(lists);
+    EXPECT_EQ(lists.totalCount(), total) << lastMean;
+    EXPECT_EQ(lists.offsets.back(), lists.indices.size()) << lastMean;
+    EXPECT_DOUBLE_EQ(scratch.meanCount, mean) << lastMean;
+    EXPECT_EQ(lists.order, queryOrder) << lastMean;
+    if (lastMean > 3 * mean) {  // nothing spilled: every list lies after the one before it in place order
+      for (std::size_t k = 1; k < kQueries; ++k)
+        ASSERT_GE(lists.offsets[queryOrder[k]], lists.endOffset(queryOrder[k - 1])) << k;
+    }
+  }
+}
+
+TEST(ListOrder, VisitsEveryListBelowTheLimitOnceWhateverTheLayout) {
+  auto points = damBreakWithDroplets(0.01f, 16, 16, 16, 20, 21);
+  std::shuffle(points.begin(), points.end(), std::mt19937(22));  // lists far from index order
+  search::UniformGridSearch grid;
+  NeighborLists lists;
+  grid.findNeighbors(points.data(), points.size(), 0.0203f, lists);
+  ASSERT_EQ(lists.order.size(), points.size());
+  std::vector<std::uint32_t> sorted = lists.order;
+  std::sort(sorted.begin(), sorted.end());
+  for (std::size_t k = 0; k < sorted.size(); ++k) ASSERT_EQ(sorted[k], k);  // a permutation
+  NeighborLists packed;
+  BruteForceSearch brute;
+  brute.findNeighbors(points.data(), points.size(), 0.0203f, packed);
+  for (const NeighborLists* layout : {&lists, &packed}) {
+    const std::size_t limit = points.size() - 37;  // ghosts past the owned particles are skipped
+    std::vector<std::atomic<int>> visits(points.size());
+    forEachInListOrder(*layout, limit, 64, [&](std::size_t i) { visits[i].fetch_add(1); });
+    for (std::size_t i = 0; i < points.size(); ++i) ASSERT_EQ(visits[i].load(), i < limit ? 1 : 0) << i;
+  }
+}
 
 TEST(ScanRange, BoxFilterKeepsExactlyThePointsWithinReachOfTheBoxOnEveryInstructionSet) {
   const ScanData d = scanData(21);
