@@ -840,7 +840,10 @@ void computeFluidDensity(StepContext& c, Workspace& workspace) {
   // The owned particles (over MPI ranks the halo's densities come from their owners).
   forEachInListOrder(nl, c.ownedCount(), 512, [&](std::size_t i) {
     if (!mirrors || c.boundary.mirrorCount(i) == 0) {
-      const Real sum = kernelSum(kernel, records, particles.position[i], nl.begin(i), nl.count(i));
+      // i's own position from its record (a neighbour's too, so likely cached when the
+      // list order visits i out of particle order), the same floats as particles.position.
+      const Vec3r xi(records[i].x, records[i].y, records[i].z);
+      const Real sum = kernelSum(kernel, records, xi, nl.begin(i), nl.count(i));
       particles.density[i] = scale * kernel.valueCoeff * (self + sum);  // SEED (4)
       return;
     }
