@@ -1,11 +1,11 @@
 #include "libsph/solver/TimeStepWCSPH.h"
-#include "libsph/solver/ListOrder.h"
 
 #include "libsph/Kernels.h"
 #include "libsph/boundary/BoundaryParticles.h"
 #include "libsph/search/CompressTable.h"
 #include "libsph/solver/DomainPartition.h"
 #include "libsph/solver/EquationOfState.h"
+#include "libsph/solver/ListOrder.h"
 #include "libsph/solver/ReactionSums.h"
 
 #include <tbb/blocked_range.h>
