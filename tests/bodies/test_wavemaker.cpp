@@ -3,7 +3,8 @@
 // wavelengths from the paddle before the far wall's reflection arrives, matches
 // Biesel's linear transfer function H / S = 2 (cosh 2kd - 1) / (sinh 2kd + 2kd)
 // within 10 %. Overrides of the scene (solver, spacing, viscosity) come from
-// CASCADE_WAVEMAKER_SET ("key=value;key=value").
+// CASCADE_WAVEMAKER_SET ("key=value;key=value"), another scene file from CASCADE_WAVEMAKER_SCENE
+// (tests/bodies/data/wavemaker_wide.json: the flume wide enough for WCSPH at 3 spacings).
 //
 // The piston makes Biesel's wave (test_wavemaker, label long): extrapolated back to
 // the paddle, the heights are within 10 %, and its energy flux is Biesel's (102 % at
@@ -64,7 +65,8 @@ struct FlumeWaves {
 /// h = m + a cos wt + b sin wt over whole periods of full-height waves before the far
 /// wall's reflection (crest to trough would add the second harmonic, about 0.15 of it).
 FlumeWaves bakeFlume() {
-  const std::string file = std::string(CASCADE_SOURCE_DIR) + "/scenes/wavemaker.json";
+  const char* other = std::getenv("CASCADE_WAVEMAKER_SCENE");  // a study's variant of the flume
+  const std::string file = other ? std::string(other) : std::string(CASCADE_SOURCE_DIR) + "/scenes/wavemaker.json";
   scene::Scene scene = scene::loadScene(file, overrides({"size=seed"}));
   const scene::Piston& piston = *scene.boundaries.obstacles.at(0).motion->piston;
   const double depth = scene.fluid.blocks.at(0).box.max[2];
