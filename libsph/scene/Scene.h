@@ -96,6 +96,7 @@ struct Solver {
   // Virtual boundary particles (SEED section 2.2)
   bool repulsionParticles = true;    ///< type I
   bool mirrorParticles = true;       ///< type II
+  bool mirrorHydrostatic = false;    ///< BoundarySettings::mirrorHydrostatic
   double repulsion = 0;              ///< D of SEED (11), m^2/s^2; 0: expected_speed^2
   double repulsionRadius = 0;        ///< r0 of SEED (11), m; 0: the fluid spacing
   double sampleGap = 0.5;            ///< largest type I gap as a fraction of r0

@@ -785,6 +785,7 @@ Scene parseSceneIn(const json& value, const Context& context) {
     s.reorderInterval = solver.integer("reorder_interval", s.reorderInterval, 0);
     s.repulsionParticles = solver.boolean("repulsion_particles", s.repulsionParticles);
     s.mirrorParticles = solver.boolean("mirror_particles", s.mirrorParticles);
+    s.mirrorHydrostatic = solver.boolean("mirror_hydrostatic", s.mirrorHydrostatic);
     s.repulsion = solver.number("repulsion", s.repulsion, Range::NonNegative);
     s.repulsionRadius = solver.number("repulsion_radius", s.repulsionRadius, Range::NonNegative);
     s.sampleGap = solver.numberIn("sample_gap", s.sampleGap, 0.05, 1.0);
@@ -986,6 +987,7 @@ json sceneToJson(const Scene& scene) {
               {"reorder_interval", s.reorderInterval},
               {"repulsion_particles", s.repulsionParticles},
               {"mirror_particles", s.mirrorParticles},
+              {"mirror_hydrostatic", s.mirrorHydrostatic},
               {"repulsion", s.repulsion},
               {"repulsion_radius", s.repulsionRadius},
               {"sample_gap", s.sampleGap},

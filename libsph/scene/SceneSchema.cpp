@@ -108,6 +108,7 @@ const std::vector<KeyDoc>& keyDocs() {
       {"solver.reorder_interval", "steps", "Steps between Morton reorders of the particles (memory locality); 0: never."},
       {"solver.repulsion_particles", "", "Type I boundary particles: the SEED (11) repulsion of mesh and wall samples."},
       {"solver.mirror_particles", "", "Type II boundary particles: mirror images across walls (Libersky & Petschke 1993)."},
+      {"solver.mirror_hydrostatic", "", "WCSPH: mirror images carry their source's pressure plus rho_0 g . (image - source), their hydrostatic part (Adami et al. 2012), so the images alone hold the water's weight off the floor. For scenes without type I particles (`repulsion_particles` false), where without it the floor layer sinks to the guard's quarter spacing (docs/solvers.md, \"Gravity waves\")."},
       {"solver.repulsion", "m^2/s^2", "D of SEED (11); 0: expected speed squared."},
       {"solver.repulsion_radius", "m", "r0 of SEED (11); 0: half the fluid spacing."},
       {"solver.sample_gap", "", "Largest gap between type I samples, as a fraction of r0."},

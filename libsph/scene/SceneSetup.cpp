@@ -158,6 +158,7 @@ SimulationSettings simulationSettings(const Scene& scene) {
   BoundarySettings& boundary = settings.boundary;
   boundary.repulsionParticles = s.repulsionParticles;
   boundary.mirrorParticles = s.mirrorParticles;
+  boundary.mirrorHydrostatic = s.mirrorHydrostatic;
   boundary.repulsionStrength = Real(s.repulsion);
   boundary.repulsionRadius = Real(s.repulsionRadius);
   boundary.sampleGap = Real(s.sampleGap);

@@ -493,6 +493,9 @@ double Simulation::step() {
   begin = Clock::now();
   moveSolids(dt);
   keepOutOfSolids(dt, owned);
+  mTimings.boundary += millisecondsSince(begin);
+  mTimeStep->finishStep(context, static_cast<Real>(dt), mGuardedMoves);
+  begin = Clock::now();
   if (mPartition) {
     mParticles.truncate(owned);  // the ghosts' owners moved them
     mTimeStep->resize(owned);
@@ -578,6 +581,7 @@ void Simulation::removeOutside() {
 /// particle stays in a solid.
 void Simulation::keepOutOfSolids(double dt, std::size_t owned) {
   const std::vector<std::uint32_t>& layer = mBoundaryParticles.layer();
+  mGuardedMoves.clear();
   if (mBoundaries.empty()) return;
   const Real clearance = Real(0.25) * mSettings.fluid.spacing;
   // The velocity the guard takes is the wall's push: a force on it (-m dv / dt), summed
@@ -585,10 +589,11 @@ void Simulation::keepOutOfSolids(double dt, std::size_t owned) {
   // impulse at once (it has already moved for this step).
   const std::size_t boundaries = mBoundaries.size();
   ReactionSums reactions(layer.size(), boundaries, 2, mPartition);  // impulse, its moment
-  std::vector<std::uint64_t> chunkCounts(ReactionSums::chunks(layer.size()), 0);
+  std::vector<std::vector<GuardedMove>> chunkMoves(ReactionSums::chunks(layer.size()));
   const double mass = double(mConstants.particleMass);
   const Real reach = mBoundaryParticles.proximityReach(), reach2 = reach * reach;
-  tbb::parallel_for(std::size_t(0), chunkCounts.size(), [&](std::size_t chunk) {
+  const Real invDt = Real(1 / dt);
+  tbb::parallel_for(std::size_t(0), chunkMoves.size(), [&](std::size_t chunk) {
     const std::size_t end = std::min(layer.size(), (chunk + 1) * ReactionSums::kChunk);
     for (std::size_t k = chunk * ReactionSums::kChunk; k < end; ++k) {
       const std::uint32_t i = layer[k];
@@ -604,6 +609,8 @@ void Simulation::keepOutOfSolids(double dt, std::size_t owned) {
         if (b < 64 && !((near >> b) & 1u)) continue;
         if (!mBoundaries[b]->penetrated(from, to, clearance, exit, normal)) continue;
         Vec3r& v = mParticles.velocity[i];
+        // Its actual move, from `from` to `exit` (TimeStep::finishStep).
+        chunkMoves[chunk].push_back(GuardedMove{i, v + (exit - to) * invDt});
         const Vec3r change = -std::min((v - mBoundaries[b]->velocityAt(exit)).dot(normal), Real(0)) * normal;
         v += change;  // relative to the wall
         mParticles.position[i] = exit;
@@ -611,12 +618,13 @@ void Simulation::keepOutOfSolids(double dt, std::size_t owned) {
         Vec3d* const record = reactions.record(k);
         record[reactions.index(0, b)] += j;
         record[reactions.index(1, b)] += exit.cast<double>().cross(j);
-        ++chunkCounts[chunk];
         break;
       }
     }
   });
-  for (std::uint64_t count : chunkCounts) mKeptOutCount += count;
+  mGuardedMoves.clear();
+  for (const std::vector<GuardedMove>& moves : chunkMoves) mGuardedMoves.insert(mGuardedMoves.end(), moves.begin(), moves.end());
+  mKeptOutCount += mGuardedMoves.size();
   const std::vector<Vec3d> totals = reactions.totals();  // collective over ranks
   for (std::size_t b = 0; b < boundaries; ++b) {
     const Vec3d& j = totals[reactions.index(0, b)];

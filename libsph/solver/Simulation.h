@@ -205,6 +205,7 @@ private:
   Real mLastMaxAcceleration = 0;
   std::uint64_t mStepCount = 0, mRemovedCount = 0, mKeptOutCount = 0;
   std::vector<Vec3r> mLayerStart;  // positions of the boundary layer at the step's start
+  std::vector<GuardedMove> mGuardedMoves;  // this step's particles put back out of solids (keepOutOfSolids)
   ParticleId mNextId = 0;
   bool mStarted = false;
   DomainPartition* mPartition = nullptr;

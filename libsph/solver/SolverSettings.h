@@ -208,6 +208,14 @@ enum class MirrorSlip {
 struct BoundarySettings {
   bool repulsionParticles = true;   ///< type I (Monaghan 1994), SEED (11)
   bool mirrorParticles = true;      ///< type II (Libersky & Petschke 1993)
+  /// WCSPH: a mirror image's pressure is its source's plus rho_0 g . (x' - x), its
+  /// hydrostatic part (Adami et al. 2012, eq. 27, for walls at rest), not the source's
+  /// alone. Without type I particles the images alone carry the water's weight, and with
+  /// the source's pressure they carry too little: the floor layer sinks into the floor
+  /// until the guard puts it back a quarter spacing off it (docs/solvers.md, "Gravity
+  /// waves"). With type I particles it changes little (the Martin & Moyce column and
+  /// Lobovsky, measured), so it is off by default.
+  bool mirrorHydrostatic = false;
   /// D of SEED (11), m^2/s^2. 0: expectedSpeed^2 (the SEED: "of the order of
   /// the squared maximum speed").
   Real repulsionStrength = Real(0);

@@ -99,6 +99,14 @@ struct TimeStepNeeds {
   Real maxCflFactor = Real(0);
 };
 
+/// A particle the solids' guard (Simulation::keepOutOfSolids) put back out of a solid
+/// after advance(): the velocity that would have made its actual move this step,
+/// (x_end - x_start) / dt, which its velocity no longer tells.
+struct GuardedMove {
+  std::uint32_t index = 0;
+  Vec3r displacementRate = Vec3r::Zero();
+};
+
 class TimeStep {
 public:
   /// What this method needs prepared (called when the simulation starts).
@@ -108,6 +116,9 @@ public:
   virtual std::string name() const = 0;
   /// Computes forces and advances velocities and positions by dt.
   virtual void advance(StepContext& context, Real dt) = 0;
+  /// Completes the step once the solids have moved and the guard has put particles back
+  /// out of them (positions and velocities final; ghosts still present).
+  virtual void finishStep(StepContext& /*context*/, Real /*dt*/, const std::vector<GuardedMove>& /*guarded*/) {}
   /// An extra upper bound on the next dt from the method's own state, s (infinity if none).
   virtual double maxTimeStep(const DerivedConstants&) const { return std::numeric_limits<double>::infinity(); }
 

@@ -987,6 +987,46 @@ void computeFluidAcceleration(StepContext& c, const Workspace& workspace) {
   });
 }
 
+namespace {
+/// The hydrostatic part of the mirror images' pressure (Adami et al. 2012, eq. 27, for a
+/// wall at rest): an image at x'_j = M x_j + o lies deeper or shallower than its source
+/// x_j, so its pressure is p_j + rho_0 g . (x'_j - x_j), not p_j. Returns the pressure
+/// term -m (dp_j / rho_j^2) grad W(x_i - x'_j) summed over i's own image and those of
+/// the listed neighbours (the images' own pressures are in the main sums).
+template <KernelPair K>
+Vec3r imageHydrostaticSum(const ForceConstants& k, const MirrorMap& map, const Vec3r& xi, Real rhoi,
+                          const wcsph::PairInput* records, std::uint32_t self, const std::uint32_t* list,
+                          std::uint32_t count, const Vec3r& rho0g) {
+  Vec3r sum = Vec3r::Zero();
+  const auto add = [&](const wcsph::PairInput& pj) {
+    const Vec3r xj(pj.x, pj.y, pj.z), image = map.apply(xj);
+    const Vec3r r = xi - image;
+    const Real r2 = r.squaredNorm();
+    if (r2 >= k.kernel.supportRadius2 || r2 <= Real(0)) return;
+    const Real dp = rho0g.dot(image - xj), invRhoj = Real(1) / pj.density;
+    const Real scalar = k.hamiltonian ? k.pressureCoeff * dp * invRhoj * invRhoj : k.pressureCoeff * dp * invRhoj / rhoi;
+    sum += (scalar * k.kernel.gradientCoeff * gradientShape<K>(k.kernel, std::sqrt(r2))) * r;
+  };
+  add(records[self]);
+  for (std::uint32_t n = 0; n < count; ++n) add(records[list[n]]);
+  return sum;
+}
+
+Vec3r imageHydrostaticSum(const ForceConstants& k, const MirrorMap& map, const Vec3r& xi, Real rhoi,
+                          const wcsph::PairInput* records, std::uint32_t self, const std::uint32_t* list,
+                          std::uint32_t count, const Vec3r& rho0g) {
+  switch (k.kernel.pair) {
+    case KernelPair::Mueller2003:
+      return imageHydrostaticSum<KernelPair::Mueller2003>(k, map, xi, rhoi, records, self, list, count, rho0g);
+    case KernelPair::CubicSpline:
+      return imageHydrostaticSum<KernelPair::CubicSpline>(k, map, xi, rhoi, records, self, list, count, rho0g);
+    case KernelPair::Automatic:
+    case KernelPair::WendlandC2: break;
+  }
+  return imageHydrostaticSum<KernelPair::WendlandC2>(k, map, xi, rhoi, records, self, list, count, rho0g);
+}
+} // namespace
+
 void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real timeStep) {
   const BoundaryParticles& boundary = c.boundary;
   const Particles& particles = c.particles;
@@ -1015,6 +1055,8 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
   const std::vector<Vec3r>& samples = boundary.sampleNeighborPositions();
   const std::vector<std::uint32_t>& owners = boundary.sampleNeighborOwners();
   const Real mass = c.constants.particleMass;
+  const bool hydrostaticImages = c.settings.boundary.mirrorHydrostatic;
+  const Vec3r rho0g = c.settings.fluid.restDensity * c.settings.solver.gravity;
 
   // Force and moment on each solid, the same in every run and on any rank count.
   ReactionSums reactions(layer.size(), boundaryCount, 2, c.partition);
@@ -1068,6 +1110,8 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
           std::for_each(list, list + workspace.mirrorCount[m], visit);
           a = sums.pressure - (viscosityCoeff * invRhoi) * sums.viscous;
         }
+        if (hydrostaticImages)
+          a += imageHydrostaticSum(k, map, xi, rhoi, records, i, workspace.mirrorList(m), workspace.mirrorCount[m], rho0g);
         total += a;
         // acting where the map's plane is (halfway to i's own image)
         if (map.boundary < boundaryCount)
@@ -1151,17 +1195,33 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
   }
 }
 
-void integrateContinuityDensity(StepContext& c, Workspace& workspace, Real dt) {
+void integrateContinuityDensity(StepContext& c, Workspace& workspace, Real dt, const std::vector<GuardedMove>& guarded) {
   Particles& particles = c.particles;
   PairInput* records = workspace.particles.data();
+  // The ghosts' moves from their owners (the density rate reads them): their velocities,
+  // and those of the guarded ones as their owners put them.
+  const Vec3r* velocity = particles.velocity.data();
+  if (c.partition) {
+    workspace.moveRate.assign(particles.velocity.begin(), particles.velocity.end());
+    for (const GuardedMove& move : guarded) workspace.moveRate[move.index] = move.displacementRate;
+    c.partition->refreshGhosts(workspace.moveRate.data(), c.ownedCount());
+    velocity = workspace.moveRate.data();
+  }
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles.size(), 4096), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const Vec3r& v = particles.velocity[i];
+      const Vec3r& v = velocity[i];
       records[i].vx = v.x();
       records[i].vy = v.y();
       records[i].vz = v.z();
     }
   });
+  if (!c.partition)
+    for (const GuardedMove& move : guarded) {
+      PairInput& record = records[move.index];
+      record.vx = move.displacementRate.x();
+      record.vy = move.displacementRate.y();
+      record.vz = move.displacementRate.z();
+    }
   computeDensityRate(c, workspace);
   const Real* rate = workspace.densityRate.data();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles.size(), 4096), [&](const auto& range) {
@@ -1237,15 +1297,15 @@ void TimeStepWCSPH::advance(StepContext& c, Real dt) {
   start = Clock::now();
   c.maxAcceleration = wcsph::integrateSymplecticEuler(c, dt);
   c.timings.integrate += millisecondsSince(start);
-  if (continuity) {
-    // The density moves with the new velocity, as the positions do (symplectic Euler:
-    // with the old velocity the acoustic modes grow every step).
-    start = Clock::now();
-    // The ghosts' new velocities from their owners (the density rate reads them).
-    if (c.partition) c.partition->refreshGhosts(c.particles.velocity.data(), c.ownedCount());
-    wcsph::integrateContinuityDensity(c, mWorkspace, dt);
-    c.timings.density += millisecondsSince(start);
-  }
+}
+
+void TimeStepWCSPH::finishStep(StepContext& c, Real dt, const std::vector<GuardedMove>& guarded) {
+  if (c.settings.solver.density != DensityEvolution::Continuity) return;
+  // The density moves with the new velocity, as the positions do (symplectic Euler:
+  // with the old velocity the acoustic modes grow every step).
+  const auto start = Clock::now();
+  wcsph::integrateContinuityDensity(c, mWorkspace, dt, guarded);
+  c.timings.density += millisecondsSince(start);
 }
 
 } // namespace cascade

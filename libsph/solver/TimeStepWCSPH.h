@@ -56,6 +56,9 @@ struct KernelNormalisation {
 struct Workspace {
   std::vector<PairInput> particles;
   std::vector<Real> densityRate;  ///< drho/dt of the continuity density, kg/m^3/s
+  /// Over ranks: the velocities the density rate reads, with the guarded particles' moves
+  /// (integrateContinuityDensity), ghosts refreshed from their owners.
+  std::vector<Vec3r> moveRate;
   KernelNormalisation normalisation;
   /// The mirror pairs of this step (computeFluidDensity, collectMirrorNeighbors): for
   /// mirror map m of a layer particle i (BoundaryParticles::mirrors()), those of i's
@@ -85,6 +88,9 @@ public:
     return needs;
   }
   void advance(StepContext& context, Real dt) override;
+  /// Continuity density: integrated here, after the solids' guard, with each guarded
+  /// particle's actual move (GuardedMove), so that the density sees every displacement.
+  void finishStep(StepContext& context, Real dt, const std::vector<GuardedMove>& guarded) override;
 
 private:
   wcsph::Workspace mWorkspace;
@@ -108,8 +114,13 @@ void computeFluidDensity(StepContext& context, Workspace& workspace);
 /// Reads positions, velocities and densities from workspace.particles.
 void computeDensityRate(StepContext& context, Workspace& workspace);
 /// After integrateSymplecticEuler: rho_i += dt drho_i/dt at the step's start positions
-/// and the new velocities (the records' positions and densities, the particles' velocities).
-void integrateContinuityDensity(StepContext& context, Workspace& workspace, Real dt);
+/// and the new velocities (the records' positions and densities, the particles'
+/// velocities), or for a guarded particle (Simulation::keepOutOfSolids) the velocity of
+/// its actual move: a particle put back out of a wall has not moved as its velocity says,
+/// and a density that missed the difference would leave it packed against the wall with
+/// nothing pushing it off (docs/solvers.md, "Gravity waves").
+void integrateContinuityDensity(StepContext& context, Workspace& workspace, Real dt,
+                                const std::vector<GuardedMove>& guarded = {});
 /// The mirror pairs of the boundary layer (Workspace::mirrorNeighbors), from the
 /// positions in workspace.particles: each mirror pass then visits the few neighbours
 /// whose image is within h (a fifth of them on the production tower) instead of all.

@@ -5,11 +5,14 @@
 // within 10 %. Overrides of the scene (solver, spacing, viscosity) come from
 // CASCADE_WAVEMAKER_SET ("key=value;key=value"), another scene file from CASCADE_WAVEMAKER_SCENE
 // (tests/bodies/data/wavemaker_wide.json: the flume wide enough for WCSPH at 3 spacings).
+// Studies: CASCADE_WAVEMAKER_PROFILE (the heights along the flume over time, below) and
+// CASCADE_WAVEMAKER_DUMP=FILE (the particles at the end: x y z density per line).
 //
 // The piston makes Biesel's wave (test_wavemaker, label long): extrapolated back to
 // the paddle, the heights are within 10 %, and its energy flux is Biesel's (102 % at
-// 5 mm). Three wavelengths out they are not (test_wavemaker_known): the waves lose
-// 14-18 % of their height per wavelength to the method's dissipation (docs/moving-solids.md).
+// 5 mm). Three wavelengths out they are not (test_wavemaker_known): the shipped DFSPH
+// flume loses 22 % of the height per wavelength at 1 cm, WCSPH set for waves
+// (wavemaker_wide.json) 8 %, 76 % of Biesel there (docs/moving-solids.md, "The flume's floor").
 #include "libsph/probes/Probes.h"
 #include "libsph/scene/SceneJson.h"
 #include "libsph/scene/SceneSetup.h"
@@ -20,6 +23,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
 #include <iostream>
 #include <sstream>
 
@@ -38,6 +42,11 @@ double waveNumber(double period, double depth) {
 }
 
 double bieselRatio(double kd) { return 2 * (std::cosh(2 * kd) - 1) / (std::sinh(2 * kd) + 2 * kd); }
+
+double envOr(const char* name, double fallback) {
+  const char* value = std::getenv(name);
+  return value ? std::atof(value) : fallback;
+}
 
 std::vector<std::string> overrides(std::vector<std::string> sets) {
   if (const char* extra = std::getenv("CASCADE_WAVEMAKER_SET")) {
@@ -87,9 +96,33 @@ FlumeWaves bakeFlume() {
   const double end = start + periods * piston.period;
   Eigen::Matrix3d normal[3] = {Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Zero()};
   Eigen::Vector3d right[3] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-  for (double time = 0.01; time <= end + 1e-9; time += 0.01) {
+  // CASCADE_WAVEMAKER_PROFILE=FILE (a study): every 0.01 s to the window's end (or to
+  // CASCADE_WAVEMAKER_END, s), as CSV: the time, the particle count, their mean density,
+  // pressure, height and x velocity, then the water height every 0.1 m along the flume.
+  std::ofstream profile;
+  if (const char* file = std::getenv("CASCADE_WAVEMAKER_PROFILE")) {
+    profile.open(file);
+    profile << "time,count,density,pressure,meanZ,meanVx";
+    for (double x = paddle + 0.1; x < length - 0.05; x += 0.1) profile << "," << x;
+    profile << "\n";
+  }
+  const double runEnd = profile ? std::max(end, envOr("CASCADE_WAVEMAKER_END", end)) : end;
+  for (double time = 0.01; time <= runEnd + 1e-9; time += 0.01) {
     sim.advanceTo(time);
-    if (time < start) continue;
+    if (profile) {
+      const Particles& particles = sim.particles();
+      double density = 0, pressure = 0, z = 0, vx = 0;
+      for (std::size_t i = 0; i < particles.size(); ++i)
+        density += particles.density[i], pressure += particles.pressure[i], z += particles.position[i].z(),
+            vx += particles.velocity[i].x();
+      const double n = double(particles.size());
+      profile << time << "," << particles.size() << "," << density / n << "," << pressure / n << "," << z / n << ","
+              << vx / n;
+      for (double x = paddle + 0.1; x < length - 0.05; x += 0.1)
+        profile << "," << waterHeight(sim.particles().position, x, y, Real(scene.fluid.spacing));
+      profile << "\n";
+    }
+    if (time < start || time > end + 1e-9) continue;
     const Eigen::Vector3d basis(1, std::cos(omega * time), std::sin(omega * time));
     for (int p = 0; p < 3; ++p) {
       const double h = waterHeight(sim.particles().position, paddle + (p + 1) * waves.wavelength, y, Real(scene.fluid.spacing));
@@ -97,6 +130,13 @@ FlumeWaves bakeFlume() {
       normal[p] += basis * basis.transpose();
       right[p] += h * basis;
     }
+  }
+  if (const char* file = std::getenv("CASCADE_WAVEMAKER_DUMP")) {  // a study: the particles at the end
+    std::ofstream dump(file);
+    const Particles& particles = sim.particles();
+    for (std::size_t i = 0; i < particles.size(); ++i)
+      dump << particles.position[i].x() << " " << particles.position[i].y() << " " << particles.position[i].z() << " "
+           << particles.density[i] << "\n";
   }
   for (int p = 0; p < 3; ++p) {
     const Eigen::Vector3d fit = normal[p].ldlt().solve(right[p]);
@@ -115,7 +155,8 @@ FlumeWaves bakeFlume() {
             << periods << " periods from " << start << " s): H1 at 1, 2, 3 wavelengths " << waves.height[0] << ", "
             << waves.height[1] << ", " << waves.height[2] << " m; extrapolated to the paddle " << waves.atPaddle
             << " m (" << 100 * (waves.atPaddle / waves.biesel - 1) << " % from Biesel " << waves.biesel
-            << " m), kept per wavelength " << waves.kept << ", " << sim.stepCount() << " steps\n";
+            << " m), kept per wavelength " << waves.kept << ", " << sim.stepCount() << " steps, " << sim.keptOutCount()
+            << " kept out of walls\n";
   return waves;
 }
 
