@@ -622,8 +622,8 @@ void Simulation::keepOutOfSolids(double dt, std::size_t owned) {
       }
     }
   });
-  mGuardedMoves.clear();
-  for (const std::vector<GuardedMove>& moves : chunkMoves) mGuardedMoves.insert(mGuardedMoves.end(), moves.begin(), moves.end());
+  for (const std::vector<GuardedMove>& moves : chunkMoves)
+    mGuardedMoves.insert(mGuardedMoves.end(), moves.begin(), moves.end());
   mKeptOutCount += mGuardedMoves.size();
   const std::vector<Vec3d> totals = reactions.totals();  // collective over ranks
   for (std::size_t b = 0; b < boundaries; ++b) {

@@ -991,39 +991,22 @@ namespace {
 /// The hydrostatic part of the mirror images' pressure (Adami et al. 2012, eq. 27, for a
 /// wall at rest): an image at x'_j = M x_j + o lies deeper or shallower than its source
 /// x_j, so its pressure is p_j + rho_0 g . (x'_j - x_j), not p_j. Returns the pressure
-/// term -m (dp_j / rho_j^2) grad W(x_i - x'_j) summed over i's own image and those of
-/// the listed neighbours (the images' own pressures are in the main sums).
-template <KernelPair K>
+/// term of that difference alone (addPairTerms with no velocities and no pressure of i's)
+/// summed over i's own image and those of the listed neighbours (the images' own
+/// pressures are in the main sums).
 Vec3r imageHydrostaticSum(const ForceConstants& k, const MirrorMap& map, const Vec3r& xi, Real rhoi,
                           const wcsph::PairInput* records, std::uint32_t self, const std::uint32_t* list,
                           std::uint32_t count, const Vec3r& rho0g) {
-  Vec3r sum = Vec3r::Zero();
+  const ForceQuery q{xi.x(), xi.y(), xi.z(), 0, 0, 0, 0, rhoi, Real(1) / rhoi};
+  ForceSums sums;
   const auto add = [&](const wcsph::PairInput& pj) {
     const Vec3r xj(pj.x, pj.y, pj.z), image = map.apply(xj);
-    const Vec3r r = xi - image;
-    const Real r2 = r.squaredNorm();
-    if (r2 >= k.kernel.supportRadius2 || r2 <= Real(0)) return;
-    const Real dp = rho0g.dot(image - xj), invRhoj = Real(1) / pj.density;
-    const Real scalar = k.hamiltonian ? k.pressureCoeff * dp * invRhoj * invRhoj : k.pressureCoeff * dp * invRhoj / rhoi;
-    sum += (scalar * k.kernel.gradientCoeff * gradientShape<K>(k.kernel, std::sqrt(r2))) * r;
+    addPairTerms(k, q, wcsph::PairInput{image.x(), image.y(), image.z(), rho0g.dot(image - xj), 0, 0, 0, pj.density},
+                 sums);
   };
   add(records[self]);
   for (std::uint32_t n = 0; n < count; ++n) add(records[list[n]]);
-  return sum;
-}
-
-Vec3r imageHydrostaticSum(const ForceConstants& k, const MirrorMap& map, const Vec3r& xi, Real rhoi,
-                          const wcsph::PairInput* records, std::uint32_t self, const std::uint32_t* list,
-                          std::uint32_t count, const Vec3r& rho0g) {
-  switch (k.kernel.pair) {
-    case KernelPair::Mueller2003:
-      return imageHydrostaticSum<KernelPair::Mueller2003>(k, map, xi, rhoi, records, self, list, count, rho0g);
-    case KernelPair::CubicSpline:
-      return imageHydrostaticSum<KernelPair::CubicSpline>(k, map, xi, rhoi, records, self, list, count, rho0g);
-    case KernelPair::Automatic:
-    case KernelPair::WendlandC2: break;
-  }
-  return imageHydrostaticSum<KernelPair::WendlandC2>(k, map, xi, rhoi, records, self, list, count, rho0g);
+  return sums.pressure;
 }
 } // namespace
 
@@ -1111,7 +1094,8 @@ void addBoundaryAcceleration(StepContext& c, const Workspace& workspace, Real ti
           a = sums.pressure - (viscosityCoeff * invRhoi) * sums.viscous;
         }
         if (hydrostaticImages)
-          a += imageHydrostaticSum(k, map, xi, rhoi, records, i, workspace.mirrorList(m), workspace.mirrorCount[m], rho0g);
+          a += imageHydrostaticSum(k, map, xi, rhoi, records, i, workspace.mirrorList(m), workspace.mirrorCount[m],
+                                   rho0g);
         total += a;
         // acting where the map's plane is (halfway to i's own image)
         if (map.boundary < boundaryCount)
