@@ -275,6 +275,8 @@ void DeformingMeshBoundary::mirrorMaps(const Vec3r& x, Real range, std::uint32_t
 
 bool DeformingMeshBoundary::isInside(const Vec3r& x) const { return mCurrent->isInside(x); }
 
+bool DeformingMeshBoundary::isInsideNear(const Vec3r& x, Real reach) const { return mCurrent->isInsideNear(x, reach); }
+
 bool DeformingMeshBoundary::penetrated(const Vec3r& from, const Vec3r& to, Real clearance, Vec3r& exit,
                                        Vec3r& normal) const {
   // Relative motion: the start is carried with the surface point nearest it over the

@@ -191,6 +191,10 @@ void MovingBoundary::mirrorMaps(const Vec3r& x, Real range, std::uint32_t bounda
 
 bool MovingBoundary::isInside(const Vec3r& x) const { return mReference->isInside(toReference(mPose, x)); }
 
+bool MovingBoundary::isInsideNear(const Vec3r& x, Real reach) const {
+  return mReference->isInsideNear(toReference(mPose, x), reach);
+}
+
 bool MovingBoundary::penetrated(const Vec3r& from, const Vec3r& to, Real clearance, Vec3r& exit,
                                 Vec3r& normal) const {
   // Relative motion: the start in the frame before the step, the end in the frame after it.

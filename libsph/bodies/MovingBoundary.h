@@ -36,6 +36,7 @@ public:
   void mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryIndex,
                   std::vector<MirrorMap>& maps) const override;
   bool isInside(const Vec3r& x) const override;
+  bool isInsideNear(const Vec3r& x, Real reach) const override;
   bool penetrated(const Vec3r& from, const Vec3r& to, Real clearance, Vec3r& exit, Vec3r& normal) const override;
   /// The reference solid's escape, in the pose now.
   bool escape(const Vec3r& x, Real clearance, Vec3r& exit, Vec3r& normal) const override;

@@ -47,10 +47,18 @@ struct MirrorMap {
   /// water near the edge: a cube held in water lost 4-7 % of its buoyancy to them).
   /// A single reflection only.
   bool frontOnly = false;
+  /// A product of a front-only map with another solid's (a junction's map,
+  /// BoundaryParticles) images only the sources in front of the front-only factor's
+  /// plane: frontNormal . s > frontDistance. Zero for a single reflection, whose own
+  /// plane is that plane.
+  Vec3r frontNormal = Vec3r::Zero();
+  Real frontDistance = 0;
 
   /// True if `source` has no image under a frontOnly map seen by the particle at x.
   bool behind(const Vec3r& x, const Vec3r& source) const {
-    return frontOnly && (source - apply(source)).dot(x - apply(x)) < 0;
+    if (!frontOnly) return false;
+    if (frontNormal.isZero()) return (source - apply(source)).dot(x - apply(x)) < 0;
+    return (frontNormal.dot(source) - frontDistance) * (frontNormal.dot(x) - frontDistance) < 0;
   }
 
   /// The image's velocity of a source moving at v (free slip or no slip).
@@ -109,6 +117,13 @@ public:
 
   /// True if x lies inside the solid (where no fluid may be).
   virtual bool isInside(const Vec3r& x) const = 0;
+  /// isInside() for a point near the surface (the junctions' probes, addJunctionMaps):
+  /// a mesh answers from its closest face within `reach` (none there: false) instead
+  /// of its winding number over every triangle. Default: isInside(x).
+  virtual bool isInsideNear(const Vec3r& x, Real reach) const {
+    (void)reach;
+    return isInside(x);
+  }
 
   /// Simulation's guard after each step: true if a particle that moved from `from`
   /// (outside) to `to` entered the solid on the way (ended inside, or passed through

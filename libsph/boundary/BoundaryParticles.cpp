@@ -502,6 +502,43 @@ std::vector<std::size_t> BoundaryParticles::samplesPerBoundary(std::size_t bound
   return counts;
 }
 
+void addJunctionMaps(const Vec3r& x, Real mirrorRange, const std::vector<BoundaryPtr>& boundaries,
+                     std::vector<MirrorMap>& maps, std::size_t begin) {
+  const std::size_t end = maps.size();
+  bool twoSolids = false;  // most particles with two maps are in a tank's edge
+  for (std::size_t m = begin + 1; m < end && !twoSolids; ++m) twoSolids = maps[m].boundary != maps[begin].boundary;
+  if (!twoSolids) return;
+  const Real probe = Real(0.1) * mirrorRange;
+  using Matrix = Eigen::Matrix<Real, 3, 3>;
+  constexpr Real kRightAngle = Real(0.1);  // |cos| of the planes' angle
+  for (std::size_t a = begin; a < end; ++a)
+    for (std::size_t b = a + 1; b < end; ++b) {
+      const MirrorMap& first = maps[a];
+      const MirrorMap& second = maps[b];
+      if (first.boundary == second.boundary || (first.frontOnly && second.frontOnly)) continue;
+      // (I - L) / 2 projects on a map's reflected normals (mutually at right angles).
+      const Matrix pa = Real(0.5) * (Matrix::Identity() - first.linear);
+      const Matrix pb = Real(0.5) * (Matrix::Identity() - second.linear);
+      if ((pa * pb).cwiseAbs().maxCoeff() > kRightAngle) continue;
+      const Vec3r footA = Real(0.5) * (x + first.apply(x)), footB = Real(0.5) * (x + second.apply(x));
+      const Vec3r towardA = x - footA, towardB = x - footB;
+      const Real la = towardA.norm(), lb = towardB.norm();
+      if (!(la > 0) || !(lb > 0)) continue;
+      const Vec3r corner = footA + footB - x, da = (probe / la) * towardA, db = (probe / lb) * towardB;
+      if (!boundaries[first.boundary]->isInsideNear(corner - da + db, 2 * probe) ||
+          !boundaries[second.boundary]->isInsideNear(corner + da - db, 2 * probe))
+        continue;
+      MirrorMap map = second.after(first);
+      map.frontOnly = first.frontOnly || second.frontOnly;
+      if (map.frontOnly) {
+        const bool isFirst = first.frontOnly;
+        map.frontNormal = (isFirst ? towardA / la : towardB / lb);
+        map.frontDistance = map.frontNormal.dot(isFirst ? footA : footB);
+      }
+      maps.push_back(map);  // after `first` and `second` are last read
+    }
+}
+
 void BoundaryParticles::update(const Particles& particles, const std::vector<BoundaryPtr>& boundaries,
                                Real sampleRadius, Real mirrorRange, bool withSamples,
                                bool withMirrors) {
@@ -541,6 +578,7 @@ void BoundaryParticles::update(const Particles& particles, const std::vector<Bou
       if (withMirrors)
         for (std::uint32_t b = 0; b < boundaryCount; ++b)
           if (b >= Proximity::kMaxBits || ((nearBoundaries >> b) & 1u)) boundaries[b]->mirrorMaps(x, mirrorRange, b, chunk.maps);
+      if (chunk.maps.size() - mapsBefore >= 2) addJunctionMaps(x, mirrorRange, boundaries, chunk.maps, mapsBefore);
       if (samples)
         forEachSampleWithin(x, sampleRadius, nearLattices, (nearBoundaries & mGridBoundaries) != 0,
                             [&](std::uint32_t k, const Vec3r& position, std::uint32_t owner) {

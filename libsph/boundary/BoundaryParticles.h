@@ -33,6 +33,23 @@
 
 namespace cascade {
 
+/// Type II maps across a junction of two solids (a paddle standing on a tank's floor
+/// or beside its wall, a tower on the floor). Each solid mirrors only itself; a tank
+/// adds its own edges' and corners' products (SEED section 2.2 over a box), but where
+/// two solids meet at right angles a particle in the corner had no images across both,
+/// so its kernel sums lacked that quadrant and its pressure pushed it into the junction
+/// (a flume's paddle: into the gap beside it, and through it). For each pair of the
+/// particle's maps from two solids whose planes are at right angles (within 6 degrees),
+/// the product is added when the solids do meet there: just behind each plane, beside
+/// the other, lies inside its solid (probed a tenth of the mirror range from the
+/// corner, so a gap narrower than that, as a paddle's clearance, counts as closed).
+/// The image is attributed to the later solid (an obstacle after the tank) and, with a
+/// front-only factor (a mesh's), images only the sources in front of that factor's plane.
+/// Appended to `maps`, where the maps of the particle at x begin at `begin`
+/// (BoundaryParticles::update calls it for every particle).
+void addJunctionMaps(const Vec3r& x, Real mirrorRange, const std::vector<BoundaryPtr>& boundaries,
+                     std::vector<MirrorMap>& maps, std::size_t begin);
+
 class BoundaryParticles {
 public:
   BoundaryParticles();

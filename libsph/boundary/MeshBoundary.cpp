@@ -461,6 +461,12 @@ bool MeshBoundary::isInside(const Vec3r& x) const {
   return windingNumber(x) > 0.5;
 }
 
+bool MeshBoundary::isInsideNear(const Vec3r& x, Real reach) const {
+  Vec3r point, normal;
+  if (!closestPoint(x, reach, point, normal)) return false;
+  return (x - point).dot(normal) <= 0;  // behind (or on) its closest face
+}
+
 bool MeshBoundary::penetrated(const Vec3r& from, const Vec3r& to, Real clearance, Vec3r& exit,
                               Vec3r& normal) const {
   const Impl& m = *mImpl;

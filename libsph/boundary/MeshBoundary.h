@@ -95,6 +95,7 @@ public:
   void mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryIndex,
                   std::vector<MirrorMap>& maps) const override;
   bool isInside(const Vec3r& x) const override;
+  bool isInsideNear(const Vec3r& x, Real reach) const override;
   /// The first triangle the move enters through (segment-triangle tests over the
   /// grid cells the move spans; a move through a thin part counts): exit `clearance`
   /// off the entry point along its face normal (`from` if that is inside too). A

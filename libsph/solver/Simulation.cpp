@@ -578,8 +578,10 @@ void Simulation::removeOutside() {
 /// (ended inside it, or passed through a thin part; Boundary::penetrated) goes back
 /// out (a quarter spacing off the face where it entered, or where the step started)
 /// and loses the part of its velocity into the solid: only energy is taken, and no
-/// particle stays in a solid.
+/// particle stays in a solid. Where two solids' ways out lie in each other (a gap
+/// narrower than the clearance), it stays where the step started.
 void Simulation::keepOutOfSolids(double dt, std::size_t owned) {
+  constexpr int kGuardPasses = 3;  // a corner of three solids
   const std::vector<std::uint32_t>& layer = mBoundaryParticles.layer();
   mGuardedMoves.clear();
   if (mBoundaries.empty()) return;
@@ -598,28 +600,61 @@ void Simulation::keepOutOfSolids(double dt, std::size_t owned) {
     for (std::size_t k = chunk * ReactionSums::kChunk; k < end; ++k) {
       const std::uint32_t i = layer[k];
       if (i >= owned) continue;  // a ghost
-      const Vec3r from = mLayerStart[k], to = mParticles.position[i];
-      // A move that enters a solid crosses its surface, so it ends within the move's
-      // length of it: a solid farther than the proximity's reach from `to` cannot have
-      // been entered by a shorter move.
-      const std::uint64_t near = squaredDistance(from, to) < reach2 ? mBoundaryParticles.boundariesNear(to)
-                                                                    : ~std::uint64_t(0);
-      Vec3r exit, normal;
-      for (std::size_t b = 0; b < boundaries; ++b) {
-        if (b < 64 && !((near >> b) & 1u)) continue;
-        if (!mBoundaries[b]->penetrated(from, to, clearance, exit, normal)) continue;
-        Vec3r& v = mParticles.velocity[i];
-        // Its actual move, from `from` to `exit` (TimeStep::finishStep).
-        chunkMoves[chunk].push_back(GuardedMove{i, v + (exit - to) * invDt});
-        const Vec3r change = -std::min((v - mBoundaries[b]->velocityAt(exit)).dot(normal), Real(0)) * normal;
-        v += change;  // relative to the wall
-        mParticles.position[i] = exit;
-        const Vec3d j = -mass * change.cast<double>();  // on the wall
-        Vec3d* const record = reactions.record(k);
-        record[reactions.index(0, b)] += j;
-        record[reactions.index(1, b)] += exit.cast<double>().cross(j);
-        break;
+      const Vec3r from = mLayerStart[k], moved = mParticles.position[i];
+      Vec3r& v = mParticles.velocity[i];
+      const Vec3r velocity = v;  // the velocity that moved it from `from`
+      Vec3r to = moved, exit, normal;
+      bool guarded = false, settled = false;
+      std::size_t last = 0;  // the solid entered last
+      // Every solid is asked, and asked again after one has put the particle back: a move
+      // into a corner where two solids meet (a paddle on a tank's floor) enters both, and
+      // the way out of one may lie in the other. A particle left inside a solid would
+      // never come out (penetrated() sees no entry from inside) and would cross it.
+      for (int pass = 0; pass < kGuardPasses; ++pass) {
+        // A move that enters a solid crosses its surface, so it ends within the move's
+        // length of it: a solid farther than the proximity's reach from `to` cannot have
+        // been entered by a shorter move.
+        const std::uint64_t near = squaredDistance(from, to) < reach2 ? mBoundaryParticles.boundariesNear(to)
+                                                                      : ~std::uint64_t(0);
+        bool entered = false;
+        for (std::size_t b = 0; b < boundaries; ++b) {
+          if (b < 64 && !((near >> b) & 1u)) continue;
+          if (!mBoundaries[b]->penetrated(from, to, clearance, exit, normal)) continue;
+          const Vec3r change = -std::min((v - mBoundaries[b]->velocityAt(exit)).dot(normal), Real(0)) * normal;
+          v += change;  // relative to the wall
+          to = exit;
+          entered = true;
+          last = b;
+          const Vec3d j = -mass * change.cast<double>();  // on the wall
+          Vec3d* const record = reactions.record(k);
+          record[reactions.index(0, b)] += j;
+          record[reactions.index(1, b)] += exit.cast<double>().cross(j);
+        }
+        if (!entered) {
+          settled = true;
+          break;
+        }
+        guarded = true;
       }
+      if (!guarded) continue;
+      if (!settled) {
+        // The solids' ways out disagree (a gap narrower than the clearance, where each
+        // solid's exit lies in the other): the particle stays where the step found it,
+        // carried by a solid that has moved over that place, at that solid's velocity.
+        to = from;
+        Vec3r carried = Vec3r::Zero();
+        for (std::size_t b = 0; b < boundaries; ++b)
+          if (mBoundaries[b]->moves() && mBoundaries[b]->isInside(from)) carried = mBoundaries[b]->velocityAt(from);
+        to += carried * Real(dt);
+        const Vec3d j = -mass * (carried - v).cast<double>();  // on the wall
+        v = carried;
+        Vec3d* const record = reactions.record(k);
+        record[reactions.index(0, last)] += j;
+        record[reactions.index(1, last)] += to.cast<double>().cross(j);
+      }
+      mParticles.position[i] = to;
+      // Its actual move, from `from` to where the guard left it (TimeStep::finishStep).
+      chunkMoves[chunk].push_back(GuardedMove{i, velocity + (to - moved) * invDt});
     }
   });
   for (const std::vector<GuardedMove>& moves : chunkMoves)

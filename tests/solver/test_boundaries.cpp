@@ -218,11 +218,14 @@ TEST(BoundaryParticles, SampleListsAndMirrorMapsEqualAFullScanOnWallsSlopeMeshAn
   for (std::size_t k = 0; k < samples.size(); k += samples.size() / 50)
     particles.add(samples[k], Vec3r::Zero(), std::uint32_t(particles.size()));
   virtualParticles.update(particles, boundaries, radius, mirrorRange, true, true);
-  std::size_t withMaps = 0;
+  std::size_t withMaps = 0, junctions = 0;
   for (std::size_t i = 0; i < particles.size(); ++i) {
     std::vector<MirrorMap> expectedMaps;
     for (std::uint32_t b = 0; b < boundaries.size(); ++b)
       boundaries[b]->mirrorMaps(particles.position[i], mirrorRange, b, expectedMaps);
+    const std::size_t own = expectedMaps.size();
+    addJunctionMaps(particles.position[i], mirrorRange, boundaries, expectedMaps, 0);
+    junctions += expectedMaps.size() - own;
     ASSERT_EQ(virtualParticles.mirrorCount(i), expectedMaps.size()) << "particle " << i;
     for (std::size_t m = 0; m < expectedMaps.size(); ++m) {
       const MirrorMap& found = virtualParticles.mirrors()[virtualParticles.mirrorOffsets()[i] + m];
@@ -233,6 +236,7 @@ TEST(BoundaryParticles, SampleListsAndMirrorMapsEqualAFullScanOnWallsSlopeMeshAn
     withMaps += expectedMaps.empty() ? 0 : 1;
   }
   EXPECT_GT(withMaps, 500u);
+  EXPECT_GT(junctions, 10u);  // the cube on the floor
   const NeighborLists& lists = virtualParticles.sampleNeighbors();
   std::size_t nonEmpty = 0;
   for (std::size_t i = 0; i < particles.size(); ++i) {
@@ -266,6 +270,57 @@ TEST(BoundaryParticles, SampleListsAndMirrorMapsEqualAFullScanOnWallsSlopeMeshAn
       }
     }
   EXPECT_GT(entries, 200u);
+}
+
+TEST(BoundaryParticles, SolidsMeetingAtRightAnglesMirrorAcrossBoth) {
+  // A paddle (a mesh box) standing half a millimetre off a tank's floor and side wall, as
+  // a flume's: a particle in the corner before it sees the floor's, the wall's and the
+  // tank edge's maps, the paddle face's, and their three products, whose images are the
+  // reflections across all their planes; the products image only the water in front of
+  // the paddle. Lifted 2 cm off the floor, the paddle meets the wall alone.
+  std::vector<BoundaryPtr> boundaries;
+  boundaries.push_back(BoxBoundary::tank(Vec3r(0, 0, 0), Vec3r(0.5f, 0.06f, 0.3f)));
+  const auto cubePath = writeTemp("paddle_corner.obj", kCubeObj);
+  MeshObstacleOptions options;
+  options.transform.scale = 0.02f;  // a 2 cm cube, its front face at x = 0.05
+  options.transform.translation = Vec3r(0.03f, 0.0005f, 0.0005f);
+  boundaries.push_back(MeshBoundary::load(cubePath, options));
+  const Real range = 0.03f;
+  const Vec3r x(0.055f, 0.005f, 0.004f);
+  const auto reflect = [](Vec3r p, int axis, Real plane) {
+    p[axis] = 2 * plane - p[axis];
+    return p;
+  };
+  std::vector<MirrorMap> maps;
+  for (std::uint32_t b = 0; b < boundaries.size(); ++b) boundaries[b]->mirrorMaps(x, range, b, maps);
+  ASSERT_EQ(maps.size(), 4u);  // floor, wall, their edge; the paddle's face
+  addJunctionMaps(x, range, boundaries, maps, 0);
+  ASSERT_EQ(maps.size(), 7u);
+  const Vec3r paddle = reflect(x, 0, 0.05f);
+  const Vec3r expected[3] = {reflect(paddle, 1, 0), reflect(paddle, 2, 0), reflect(reflect(paddle, 1, 0), 2, 0)};
+  for (const Vec3r& image : expected) {
+    bool found = false;
+    for (std::size_t m = 4; m < maps.size(); ++m)
+      if (maps[m].apply(x).isApprox(image, 1e-5f)) {
+        found = true;
+        EXPECT_EQ(maps[m].boundary, 1u);  // the paddle's
+        EXPECT_TRUE(maps[m].frontOnly);
+        EXPECT_FALSE(maps[m].behind(x, Vec3r(0.07f, 0.01f, 0.01f)));  // water in front of the paddle
+        EXPECT_TRUE(maps[m].behind(x, Vec3r(0.02f, 0.01f, 0.01f)));   // water behind it
+      }
+    EXPECT_TRUE(found) << "no map images the corner particle at " << image.transpose();
+  }
+  // Lifted off the floor: its face and the floor still meet at right angles, but not there.
+  options.transform.translation = Vec3r(0.03f, 0.0005f, 0.02f);
+  boundaries[1] = MeshBoundary::load(cubePath, options);
+  std::filesystem::remove(cubePath);
+  const Vec3r beside(0.055f, 0.005f, 0.025f);
+  maps.clear();
+  for (std::uint32_t b = 0; b < boundaries.size(); ++b) boundaries[b]->mirrorMaps(beside, range, b, maps);
+  ASSERT_EQ(maps.size(), 4u);
+  addJunctionMaps(beside, range, boundaries, maps, 0);
+  ASSERT_EQ(maps.size(), 5u);  // with the wall only
+  EXPECT_TRUE(maps[4].apply(beside).isApprox(reflect(reflect(beside, 0, 0.05f), 1, 0), 1e-5f));
 }
 
 TEST(TriangleBand, ClosestPointEqualsAScanOverAllTriangles) {
