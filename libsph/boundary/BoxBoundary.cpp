@@ -80,9 +80,11 @@ void BoxBoundary::mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryI
                              std::vector<MirrorMap>& maps) const {
   const Vec3r q = mRotation.transpose() * (x - mCenter);
   if (mTank) {
-    // Walls within range: one reflection each, and the products of the
-    // reflections across walls of different axes (edges and corners).
-    int nearSide[3] = {-1, -1, -1};  // per axis, the first wall within range
+    // Walls within range: one reflection each, and the products of the reflections
+    // across walls of different axes (edges and corners), for every such pair within
+    // range: in a tank narrower than twice the range (a slab) both walls of an axis
+    // are, and the corner where the floor meets the far wall needs its own image.
+    unsigned nearSides[3] = {0, 0, 0};  // per axis, bit `side`: that wall within range
     const std::size_t first = maps.size();
     for (int axis = 0; axis < 3; ++axis) {
       if (std::abs(q[axis]) > mHalf[axis] + range) return;  // far outside: not this tank's fluid
@@ -93,21 +95,25 @@ void BoxBoundary::mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryI
         if (distance < 0 || distance >= range) continue;
         maps.push_back(mFaceMap[axis][side]);
         maps.back().boundary = boundaryIndex;
-        if (nearSide[axis] < 0) nearSide[axis] = side;
+        nearSides[axis] |= 1u << side;
       }
     }
     if (maps.size() - first < 2) return;
     const int pairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
-    for (int p = 0; p < 3; ++p) {
-      const int sa = nearSide[pairs[p][0]], sb = nearSide[pairs[p][1]];
-      if (sa < 0 || sb < 0) continue;
-      maps.push_back(mEdgeMap[p][sa][sb]);
-      maps.back().boundary = boundaryIndex;
-    }
-    if (nearSide[0] >= 0 && nearSide[1] >= 0 && nearSide[2] >= 0) {
-      maps.push_back(mCornerMap[nearSide[0]][nearSide[1]][nearSide[2]]);
-      maps.back().boundary = boundaryIndex;
-    }
+    for (int p = 0; p < 3; ++p)
+      for (int sa = 0; sa < 2; ++sa)
+        for (int sb = 0; sb < 2; ++sb) {
+          if (!((nearSides[pairs[p][0]] >> sa) & 1u) || !((nearSides[pairs[p][1]] >> sb) & 1u)) continue;
+          maps.push_back(mEdgeMap[p][sa][sb]);
+          maps.back().boundary = boundaryIndex;
+        }
+    for (int s0 = 0; s0 < 2; ++s0)
+      for (int s1 = 0; s1 < 2; ++s1)
+        for (int s2 = 0; s2 < 2; ++s2) {
+          if (!((nearSides[0] >> s0) & nearSides[1] >> s1 & nearSides[2] >> s2 & 1u)) continue;
+          maps.push_back(mCornerMap[s0][s1][s2]);
+          maps.back().boundary = boundaryIndex;
+        }
     return;
   }
   // Solid block: closest point on the box; mirror across the tangent plane there

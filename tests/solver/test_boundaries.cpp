@@ -104,6 +104,52 @@ TEST(BoxBoundary, TankCornerSeesAllSevenImages) {
   EXPECT_FALSE(tank->isInside(Vec3r(0.5f, 0.5f, 3.0f)));  // above the open top is not a wall
 }
 
+// In a tank narrower than twice the mirror range (a flume's slab) a particle lies within
+// range of both side walls, and the images it needs across the floor's edges are those of
+// both: the product with the far wall is not the product with the near one. Every image
+// is checked against the reflections across each subset of the walls within range that
+// takes at most one wall of an axis, and nothing else is imaged.
+TEST(BoxBoundary, NarrowTankImagesTheEdgesAndCornersOfBothSideWalls) {
+  const Vec3r size(1, 0.04f, 1);
+  auto tank = BoxBoundary::tank(Vec3r(0, 0, 0), size);
+  const Real range = 0.1f;
+  for (const Vec3r& x : {Vec3r(0.5f, 0.03f, 0.02f), Vec3r(0.02f, 0.012f, 0.03f), Vec3r(0.97f, 0.025f, 0.05f)}) {
+    std::vector<MirrorMap> maps;
+    tank->mirrorMaps(x, range, 0, maps);
+    // The walls within range, per axis: (axis, side) with the wall at 0 (side 0) or size.
+    std::vector<std::vector<int>> near(3);
+    for (int axis = 0; axis < 3; ++axis)
+      for (int side = 0; side < 2; ++side) {
+        const Real distance = side ? size[axis] - x[axis] : x[axis];
+        if (distance < range && !(axis == 2 && side == 1)) near[std::size_t(axis)].push_back(side);
+      }
+    std::vector<Vec3r> expected;
+    for (int sx = -1; sx < int(near[0].size()); ++sx)
+      for (int sy = -1; sy < int(near[1].size()); ++sy)
+        for (int sz = -1; sz < int(near[2].size()); ++sz) {
+          if (sx < 0 && sy < 0 && sz < 0) continue;
+          Vec3r image = x;
+          const int chosen[3] = {sx, sy, sz};
+          for (int axis = 0; axis < 3; ++axis)
+            if (chosen[axis] >= 0)
+              image[axis] = near[std::size_t(axis)][std::size_t(chosen[axis])] ? 2 * size[axis] - image[axis] : -image[axis];
+          expected.push_back(image);
+        }
+    ASSERT_EQ(maps.size(), expected.size()) << x.transpose();
+    for (const Vec3r& image : expected) {
+      const bool found = std::any_of(maps.begin(), maps.end(),
+                                     [&](const MirrorMap& m) { return m.apply(x).isApprox(image, 1e-5f); });
+      EXPECT_TRUE(found) << "no image at " << image.transpose() << " of " << x.transpose();
+    }
+  }
+  // The first point: walls y = 0, y = 0.04 and the floor, and their two edges: 5 images.
+  // Before, the edge with the floor was that of the first wall in range, y = 0, the
+  // farther one: 4 images, and none across the corner next to the particle.
+  std::vector<MirrorMap> maps;
+  tank->mirrorMaps(Vec3r(0.5f, 0.03f, 0.02f), range, 0, maps);
+  EXPECT_EQ(maps.size(), 5u);
+}
+
 TEST(BoxBoundary, SolidBlockMirrorsAcrossTheNearestFaceAndEdge) {
   const auto rotation = Transform::rotationFromEulerDegrees(Vec3r(0, 30, 0));
   auto box = BoxBoundary::solid(Vec3r(0, 0, 0), Vec3r(1, 1, 0.1f), rotation);
