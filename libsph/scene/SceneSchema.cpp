@@ -115,7 +115,9 @@ const std::vector<KeyDoc>& keyDocs() {
       {"solver.slip", "", "Wall velocity of mirror particles: `free` slip, `no` slip, or free slip plus a `laminar` wall shear stress (DFSPH)."},
       {"solver.kappa", "", "Mirror particles are made for fluid within kappa x h of a wall."},
       {"boundaries", "", "The solids: tank, planes, slopes, mesh obstacles, and where particles are removed."},
-      {"boundaries.tank", "", "An open-top box: floor and four walls, the fluid inside."},
+      {"boundaries.tank", "",
+       "An open-top box: floor and four walls, the fluid inside. A thin slab (a 2-D flume) must be at least the "
+       "support radius less a spacing wide (the bake warns otherwise: docs/moving-solids.md, \"A slab's far wall\")."},
       {"boundaries.tank.min", "m", "Lower corner of the tank."},
       {"boundaries.tank.max", "m", "Upper corner (the walls' top); above min in every axis."},
       {"boundaries.planes", "", "Infinite planes."},

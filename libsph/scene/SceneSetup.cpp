@@ -313,6 +313,21 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
          << kDfsphStillWaterLayers
          << " (docs/dfsph-deep-water.md), deeper is untested: check the first frames, or use solver.type=wcsph "
             "or a coarser fluid.spacing\n";
+  // A tank narrower than the support radius less a spacing: particles a layer apart see
+  // each other across both side walls at once (an image translated by twice the width,
+  // from W + s away), which the tank's mirror maps, one reflection or one product of
+  // walls of different axes, do not make (docs/moving-solids.md, "A slab's far wall").
+  if (log && scene.boundaries.tank) {
+    const double h = double(simulation.constants().supportRadius), s = scene.fluid.spacing;
+    for (int axis = 0; axis < 2; ++axis) {
+      const double width = scene.boundaries.tank->max[axis] - scene.boundaries.tank->min[axis];
+      if (width + s < h * (1 - 1e-9))
+        *log << "warning: the tank is " << width << " m across " << "xy"[axis] << ", less than the support radius "
+             << h << " m less a spacing: the mirror images across both walls at once are missing and the water "
+                "there packs wrongly; widen the tank to at least "
+             << h - s << " m or lower solver.support_factor\n";
+    }
+  }
   const Real cap = scene.solver.type == "dfsph" ? kDfsphMaxCfl : kWcsphMaxCfl;
   if (log && scene.solver.cfl > double(cap))
     *log << "warning: solver.cfl " << scene.solver.cfl << " is above the " << cap << " " << scene.solver.type

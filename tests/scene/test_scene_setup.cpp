@@ -68,6 +68,25 @@ TEST(SceneSetup, WarnsWhenDfsphWaterIsDeeperThanMeasured) {
   EXPECT_EQ(setUpLog(column(0.01 * (limit + 10), "wcsph")).find("warning"), std::string::npos);
 }
 
+// A slab two layers wide at 1 cm: with a support of 3 spacings the nearest image that
+// its single reflections and edge products miss (a particle's neighbour one layer over,
+// translated by twice the width) lies 3 cm away, at the support's edge; at 3.5 spacings it
+// lies inside, and a standing wave there threw its water up by 0.9 spacing in three
+// periods (docs/moving-solids.md, "A slab's far wall").
+TEST(SceneSetup, WarnsWhenATankIsNarrowerThanTheSupportLessASpacing) {
+  Scene scene = column(0.1, "wcsph");
+  scene.fluid.blocks[0].box = {{0, 0, 0}, {0.05, 0.02, 0.1}};
+  scene.boundaries.tank = Box{{0, 0, 0}, {0.05, 0.02, 0.2}};
+  scene.solver.supportFactor = 3;
+  EXPECT_EQ(setUpLog(scene).find("warning"), std::string::npos) << setUpLog(scene);
+  scene.solver.supportFactor = 3.5;
+  const std::string log = setUpLog(scene);
+  EXPECT_NE(log.find("warning: the tank is 0.02 m across y, less than the support radius 0.035 m less a spacing"),
+            std::string::npos)
+      << log;
+  EXPECT_EQ(log.find("across x"), std::string::npos);  // 0.05 m: wide enough
+}
+
 TEST(SceneSetup, WarnsWhenACflFactorIsAboveItsSolversCap) {
   Scene scene = column(0.1, "dfsph");
   scene.solver.cfl = 1.0;
