@@ -177,8 +177,8 @@ TEST(Wavemaker, ThePistonMakesBieselsWave) {
 }
 #else
 // The check: within 10 % of Biesel about three wavelengths out. The waves lose
-// 7 % of their height per wavelength at 1 cm (4 % at 5 mm) to particle-scale noise:
-// 79 % (1 cm), 87 % (5 mm) there.
+// 7 % of their height per wavelength at 1 cm (4 % at 5 mm; 4 % at 1 cm with half the
+// stroke: the loss grows with the wave's slope): 79 % (1 cm), 87 % (5 mm) there.
 TEST(Wavemaker, WaveHeightThreeWavelengthsOutFollowsBiesel) {
   const FlumeWaves waves = bakeFlume();
   EXPECT_NEAR(waves.height[2] / waves.biesel, 1.0, 0.10);
