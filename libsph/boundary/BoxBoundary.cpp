@@ -99,18 +99,19 @@ void BoxBoundary::mirrorMaps(const Vec3r& x, Real range, std::uint32_t boundaryI
       }
     }
     if (maps.size() - first < 2) return;
+    const auto near = [&](int axis, int side) { return ((nearSides[axis] >> side) & 1u) != 0; };
     const int pairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
     for (int p = 0; p < 3; ++p)
       for (int sa = 0; sa < 2; ++sa)
         for (int sb = 0; sb < 2; ++sb) {
-          if (!((nearSides[pairs[p][0]] >> sa) & 1u) || !((nearSides[pairs[p][1]] >> sb) & 1u)) continue;
+          if (!near(pairs[p][0], sa) || !near(pairs[p][1], sb)) continue;
           maps.push_back(mEdgeMap[p][sa][sb]);
           maps.back().boundary = boundaryIndex;
         }
     for (int s0 = 0; s0 < 2; ++s0)
       for (int s1 = 0; s1 < 2; ++s1)
         for (int s2 = 0; s2 < 2; ++s2) {
-          if (!((nearSides[0] >> s0) & nearSides[1] >> s1 & nearSides[2] >> s2 & 1u)) continue;
+          if (!near(0, s0) || !near(1, s1) || !near(2, s2)) continue;
           maps.push_back(mCornerMap[s0][s1][s2]);
           maps.back().boundary = boundaryIndex;
         }
