@@ -606,6 +606,12 @@ void Simulation::keepOutOfSolids(double dt, std::size_t owned) {
       Vec3r to = moved, exit, normal;
       bool guarded = false, settled = false;
       std::size_t last = 0;  // the solid entered last
+      // The impulse j the wall b takes, and its moment about the origin from `at`.
+      const auto recordImpulse = [&](std::size_t b, const Vec3d& j, const Vec3r& at) {
+        Vec3d* const record = reactions.record(k);
+        record[reactions.index(0, b)] += j;
+        record[reactions.index(1, b)] += at.cast<double>().cross(j);
+      };
       // Every solid is asked, and asked again after one has put the particle back: a move
       // into a corner where two solids meet (a paddle on a tank's floor) enters both, and
       // the way out of one may lie in the other. A particle left inside a solid would
@@ -625,10 +631,7 @@ void Simulation::keepOutOfSolids(double dt, std::size_t owned) {
           to = exit;
           entered = true;
           last = b;
-          const Vec3d j = -mass * change.cast<double>();  // on the wall
-          Vec3d* const record = reactions.record(k);
-          record[reactions.index(0, b)] += j;
-          record[reactions.index(1, b)] += exit.cast<double>().cross(j);
+          recordImpulse(b, -mass * change.cast<double>(), exit);  // on the wall
         }
         if (!entered) {
           settled = true;
@@ -646,11 +649,8 @@ void Simulation::keepOutOfSolids(double dt, std::size_t owned) {
         for (std::size_t b = 0; b < boundaries; ++b)
           if (mBoundaries[b]->moves() && mBoundaries[b]->isInside(from)) carried = mBoundaries[b]->velocityAt(from);
         to += carried * Real(dt);
-        const Vec3d j = -mass * (carried - v).cast<double>();  // on the wall
+        recordImpulse(last, -mass * (carried - v).cast<double>(), to);  // on the wall
         v = carried;
-        Vec3d* const record = reactions.record(k);
-        record[reactions.index(0, last)] += j;
-        record[reactions.index(1, last)] += to.cast<double>().cross(j);
       }
       mParticles.position[i] = to;
       // Its actual move, from `from` to where the guard left it (TimeStep::finishStep).

@@ -319,7 +319,7 @@ TEST_P(PaddleGaps, NoWaterPassesThePaddleNorLeavesTheTank) {
   std::vector<std::string> sets = {"size=seed"};
   if (std::string(GetParam()) == "dfsph")
     sets = {"size=seed", "solver.type=dfsph", "solver.density=summation", "solver.support_factor=2",
-            "solver.repulsion_particles=true", "solver.mirror_hydrostatic=false"};  // the shipped flume's
+            "solver.repulsion_particles=true", "solver.mirror_hydrostatic=false"};  // the shipped flume's until 2026-11-29
   scene::Scene scene =
       scene::loadScene(std::string(CASCADE_SOURCE_DIR) + "/tests/bodies/data/paddle_gaps.json", sets);
   Simulation sim(scene::simulationSettings(scene));
