@@ -78,6 +78,7 @@ struct Solver {
   bool surfaceLayerPressure = true;  ///< WCSPH: top layer keeps rho_0 |g| s / 2
   std::string density = "summation"; ///< WCSPH: "summation" SEED (4) | "continuity" (with density diffusion)
   double densityDiffusion = 0.1;     ///< WCSPH continuity: delta-SPH's delta (0 = off)
+  double velocityFilter = 0;         ///< WCSPH: bi-Laplacian velocity filter beta (0 = off)
   double artificialViscosity = 0.1;  ///< Monaghan alpha; 0 = off
   bool artificialViscosityAllPairs = true;  ///< WCSPH: also for receding pairs
   double expectedSpeed = 0;          ///< m/s; 0: derived (free fall height, emitter speeds)

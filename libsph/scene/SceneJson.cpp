@@ -764,6 +764,7 @@ Scene parseSceneIn(const json& value, const Context& context) {
     s.surfaceLayerPressure = solver.boolean("surface_layer_pressure", s.surfaceLayerPressure);
     s.density = solver.choice("density", s.density, {"summation", "continuity"});
     s.densityDiffusion = solver.numberIn("density_diffusion", s.densityDiffusion, 0, 1);
+    s.velocityFilter = solver.numberIn("velocity_filter", s.velocityFilter, 0, 1);
     s.artificialViscosity = solver.numberIn("artificial_viscosity", s.artificialViscosity, 0, 2);
     s.artificialViscosityAllPairs = solver.boolean("artificial_viscosity_all_pairs", s.artificialViscosityAllPairs);
     s.expectedSpeed = solver.number("expected_speed", s.expectedSpeed, Range::NonNegative);
@@ -970,6 +971,7 @@ json sceneToJson(const Scene& scene) {
               {"surface_layer_pressure", s.surfaceLayerPressure},
               {"density", s.density},
               {"density_diffusion", s.densityDiffusion},
+              {"velocity_filter", s.velocityFilter},
               {"artificial_viscosity", s.artificialViscosity},
               {"artificial_viscosity_all_pairs", s.artificialViscosityAllPairs},
               {"expected_speed", s.expectedSpeed},

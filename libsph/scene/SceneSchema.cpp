@@ -91,6 +91,7 @@ const std::vector<KeyDoc>& keyDocs() {
       {"solver.surface_layer_pressure", "", "WCSPH summation density: the top particle layer keeps the pressure rho_0 g spacing / 2 instead of 0."},
       {"solver.density", "", "WCSPH density: `summation`, SEED (4), or `continuity` (integrated, with density diffusion)."},
       {"solver.density_diffusion", "", "WCSPH continuity: delta of delta-SPH's density diffusion (Molteni & Colagrossi 2009); 0: off."},
+      {"solver.velocity_filter", "", "WCSPH: strength beta of the bi-Laplacian velocity filter, a -= beta c_0 / h L(L(v)): it damps particle-scale velocity and leaves smooth flow alone. Set it (0.12, as scenes/wavemaker.json) with continuity density at a support beyond 2.2 spacings, where still water is otherwise unstable and waves lose to the particle scale (docs/solvers.md, \"Still water set for waves\"); 0: off."},
       {"solver.artificial_viscosity", "", "Monaghan (1992) artificial viscosity alpha; 0: off."},
       {"solver.artificial_viscosity_all_pairs", "", "WCSPH: artificial viscosity also for receding pairs, not only approaching ones."},
       {"solver.expected_speed", "m/s", "The largest speed the scene should reach; 0: free-fall speed over the scene's height, or the largest initial or emitted speed. Sets the default stiffness, repulsion and instability threshold."},

@@ -119,6 +119,7 @@ SimulationSettings simulationSettings(const Scene& scene) {
   solver.surfaceLayerPressure = s.surfaceLayerPressure;
   solver.density = s.density == "continuity" ? DensityEvolution::Continuity : DensityEvolution::Summation;
   solver.densityDiffusion = Real(s.densityDiffusion);
+  solver.velocityFilter = Real(s.velocityFilter);
   solver.artificialViscosity = Real(s.artificialViscosity);
   solver.artificialViscosityAllPairs = s.artificialViscosityAllPairs;
   solver.expectedSpeed = Real(s.expectedSpeed);
@@ -327,6 +328,17 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
                 "there packs wrongly; widen the tank to at least "
              << h - s << " m or lower solver.support_factor\n";
     }
+  }
+  // Continuity density at a support beyond about 2.2 spacings: still water is unstable, a
+  // particle-scale motion grows from round-off and drains waves (docs/solvers.md, "Still
+  // water set for waves"); the velocity filter holds it down.
+  if (log && scene.solver.type == "wcsph" && scene.solver.density == "continuity" && scene.solver.velocityFilter <= 0) {
+    const double factor = scene.solver.supportFactor > 0 ? scene.solver.supportFactor : kWcsphSupportFactor;
+    if (factor > kWcsphStableContinuitySupport)
+      *log << "warning: continuity density at solver.support_factor " << factor
+           << " with no solver.velocity_filter: resting water there is unstable (a particle-scale motion grows from "
+              "round-off and drains waves); set solver.velocity_filter (0.12) or a support_factor of at most "
+           << kWcsphStableContinuitySupport << "\n";
   }
   const Real cap = scene.solver.type == "dfsph" ? kDfsphMaxCfl : kWcsphMaxCfl;
   if (log && scene.solver.cfl > double(cap))

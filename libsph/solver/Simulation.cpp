@@ -487,6 +487,7 @@ double Simulation::step() {
   StepContext context{mParticles, mNeighbors, mBoundaryParticles, mSettings, mConstants,
                       mAcceleration, mObstacleForce, mReportedForce, mObstacleMoment, mTimings, mTime, 0,
                       mPartition, owned, hasCoupledBodies()};
+  context.step = mStepCount;
   mTimeStep->advance(context, static_cast<Real>(dt));
   // The forces on the solids are every rank's already (ReactionSums.h), the same bits on any rank count.
   if (mPartition) context.maxAcceleration = Real(mPartition->maxOverRanks(double(context.maxAcceleration)));

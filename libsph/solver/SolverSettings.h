@@ -85,6 +85,10 @@ enum class DensityEvolution {
 /// The rigidity is gone from 2.15 spacings on (period within 1 %; docs/solvers.md,
 /// "Gravity waves"), and floating bodies, held or free, come within 1 % of Archimedes.
 constexpr double kWcsphSupportFactor = 2.15;
+/// WCSPH with continuity density: the largest support (in spacings) at which still water
+/// was measured to stay still without the velocity filter (SolverSettings::velocityFilter):
+/// 2.15 holds, 2.3 and beyond a particle-scale motion grows from round-off.
+constexpr double kWcsphStableContinuitySupport = 2.2;
 /// DFSPH's: 2 spacings (cubic spline; B&K 2017, SPlisHSPlasH's 4 particle radii). Its
 /// lattice has no such rigidity (the same flume: period -2.5 %), and larger supports damp
 /// its waves more (0.82, 0.76, 0.72 of the amplitude kept per period at 2, 2.1, 2.15).
@@ -152,6 +156,15 @@ struct SolverSettings {
   /// support radius), less its hydrostatic part (Fourtakas et al. 2019), so water at
   /// rest stays at rest. 0 = off; 0.1 is the value of both papers.
   Real densityDiffusion = Real(0.1);
+  /// WCSPH: strength beta of the bi-Laplacian velocity filter, a_i -= beta c_0 / h
+  /// L(L(v))_i (wcsph::addVelocityFilter), 0 = off. With continuity density at supports
+  /// beyond kWcsphStableContinuitySupport still water is unstable: a zigzag of vertical
+  /// velocity between neighbouring columns grows from round-off (e-folding 0.1-0.2 s at
+  /// 1-2 cm and 3 spacings, faster with delta-SPH's diffusion and with the support, the
+  /// same at a tenth of the time step) and then drains gravity waves (docs/solvers.md,
+  /// "Still water set for waves"). The filter damps that scale and leaves smooth flow
+  /// alone; the slower sliding of layers that follows it is held ten times lower.
+  Real velocityFilter = Real(0);
 
   /// The largest speed the scene is expected to produce, m/s. 0: the free-fall
   /// speed sqrt(2 |g| H) over the height H from the lowest boundary (or fluid)

@@ -71,6 +71,9 @@ struct StepContext {
   std::size_t owned = std::numeric_limits<std::size_t>::max();
   /// Rigid bodies the water moves (two-way coupled) are in the scene.
   bool coupledBodies = false;
+  /// The step's index (Simulation::stepCount() before it; checkpointed), for passes a
+  /// strategy runs every few steps only.
+  std::uint64_t step = 0;
   /// The particles whose forces and motion this step computes: [0, ownedCount()).
   std::size_t ownedCount() const { return std::min(owned, particles.size()); }
 };

@@ -968,6 +968,112 @@ void computeDensityRate(StepContext& c, Workspace& workspace) {
   });
 }
 
+namespace {
+/// L(f)_i = sum_j V_0 W_ij (f_j - f_i) over i's fluid neighbours and, for the boundary
+/// layer, the mirror images of i and of its neighbours, an image carrying a + M f_j
+/// (a = (I - M) w for the velocity of a wall moving at w, free slip; a = 0 for a
+/// velocity difference). V_0 = m / rho_0, so the pair weights are symmetric. The fluid
+/// pairs' W / valueCoeff go to pairWeights, at each list entry's index, when fillWeights,
+/// and are read from there otherwise (the second pass of the same step).
+template <class Field, class ImageOffset>
+void velocityFilterLaplacian(StepContext& c, const Workspace& workspace, const KernelConstants& kernel, Field&& field,
+                             ImageOffset&& imageOffset, std::vector<Vec3r>& out, std::vector<Real>& pairWeights,
+                             bool fillWeights) {
+  const NeighborLists& nl = c.neighbors;
+  const PairInput* records = workspace.particles.data();
+  const Real weight = workspace.normalisation.densityScale / c.settings.fluid.restDensity * kernel.valueCoeff;
+  const Real h2 = kernel.supportRadius2;
+  const std::size_t n = c.particles.size();
+  out.assign(n, Vec3r::Zero());
+  if (fillWeights) pairWeights.resize(nl.indices.size());
+  forEachInListOrder(nl, n, 512, [&](std::size_t i) {
+    const PairInput& p = records[i];
+    const Vec3r fi = field(i);
+    Vec3r sum = Vec3r::Zero();
+    Real* w = pairWeights.data() + nl.offsets[i];
+    for (const std::uint32_t* j = nl.begin(i); j != nl.end(i); ++j, ++w) {
+      if (fillWeights) {
+        const PairInput& q = records[*j];
+        const Real r2 = squaredDistance(Vec3r(p.x, p.y, p.z), Vec3r(q.x, q.y, q.z));
+        *w = r2 < h2 && r2 > Real(0) ? valueShape(kernel, r2) : Real(0);
+      }
+      sum += *w * (field(*j) - fi);
+    }
+    out[i] = weight * sum;
+  });
+  const BoundaryParticles& boundary = c.boundary;
+  if (boundary.mirrors().empty()) return;
+  const std::vector<std::uint32_t>& layer = boundary.layer();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, layer.size(), 256), [&](const auto& range) {
+    for (std::size_t k = range.begin(); k != range.end(); ++k) {
+      const std::uint32_t i = layer[k];
+      const PairInput& p = records[i];
+      const Vec3r xi(p.x, p.y, p.z), fi = field(i);
+      Vec3r sum = Vec3r::Zero();
+      for (std::uint32_t m = boundary.mirrorOffsets()[i]; m < boundary.mirrorOffsets()[i + 1]; ++m) {
+        const MirrorMap& map = boundary.mirrors()[m];
+        const Vec3r a = imageOffset(map);
+        const std::uint32_t* list = workspace.mirrorList(m);
+        const std::uint32_t* const listEnd = list + workspace.mirrorCount[m];
+        const Real self2 = squaredDistance(xi, map.apply(xi));
+        if (self2 < h2 && self2 > Real(0)) sum += valueShape(kernel, self2) * (a + map.linear * fi - fi);
+        if (workspace.mirrorPreImage[m]) {
+          // Around i's pre-image y (an isometry): a + M f_j - f_i = M (f_j - u), u = M^T (f_i - a).
+          const Vec3r y = preImage(map, xi), u = map.linear.transpose() * (fi - a);
+          Vec3r local = Vec3r::Zero();
+          for (const std::uint32_t* j = list; j != listEnd; ++j) {
+            const PairInput& q = records[*j];
+            const Real r2 = squaredDistance(y, Vec3r(q.x, q.y, q.z));
+            if (r2 < h2 && r2 > Real(0)) local += valueShape(kernel, r2) * (field(*j) - u);
+          }
+          sum += map.linear * local;
+        } else {
+          for (const std::uint32_t* j = list; j != listEnd; ++j) {
+            const PairInput& q = records[*j];
+            const Real r2 = squaredDistance(xi, map.apply(Vec3r(q.x, q.y, q.z)));
+            if (r2 < h2 && r2 > Real(0)) sum += valueShape(kernel, r2) * (a + map.linear * field(*j) - fi);
+          }
+        }
+      }
+      out[i] += weight * sum;
+    }
+  });
+}
+} // namespace
+
+int velocityFilterInterval(const SolverSettings& solver) {
+  // beta c_0 / h dt is about beta cfl per step (dt = cfl h / (c_0 + v)); L^2 is at most
+  // about 4, so K beta cfl <= 0.2 keeps each application below 0.8 of a zigzag's velocity.
+  const double perStep = double(solver.velocityFilter) * std::max(double(solver.cflFactor), 0.05);
+  return perStep > 0 ? std::clamp(int(0.2 / perStep), 1, 8) : 1;
+}
+
+void addVelocityFilter(StepContext& c, Workspace& workspace) {
+  const Real beta = c.settings.solver.velocityFilter;
+  if (beta <= Real(0)) return;
+  const int interval = velocityFilterInterval(c.settings.solver);
+  if (c.step % std::uint64_t(interval) != 0) return;
+  if (!c.boundary.mirrors().empty()) requireMirrorNeighbors(c, workspace);
+  const KernelConstants kernel(c.settings.solver.kernels, c.constants.supportRadius);
+  const PairInput* records = workspace.particles.data();
+  velocityFilterLaplacian(
+      c, workspace, kernel, [&](std::size_t j) { return Vec3r(records[j].vx, records[j].vy, records[j].vz); },
+      [](const MirrorMap& map) { return Vec3r(map.wallVelocity - map.linear * map.wallVelocity); },
+      workspace.velocityLaplacian, workspace.filterWeights, true);
+  if (c.partition) c.partition->refreshGhosts(workspace.velocityLaplacian.data(), c.ownedCount());
+  const std::vector<Vec3r>& laplacian = workspace.velocityLaplacian;
+  velocityFilterLaplacian(
+      c, workspace, kernel, [&](std::size_t j) { return laplacian[j]; },
+      [](const MirrorMap&) { return Vec3r(Vec3r::Zero()); }, workspace.velocityBilaplacian, workspace.filterWeights,
+      false);
+  // a_i -= K beta c_0 / h L(L(v))_i on every K-th step
+  const Real coeff = Real(interval) * beta * c.constants.speedOfSound / c.constants.supportRadius;
+  const std::vector<Vec3r>& bilaplacian = workspace.velocityBilaplacian;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, c.ownedCount(), 4096), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) c.acceleration[i] -= coeff * bilaplacian[i];
+  });
+}
+
 void computeFluidAcceleration(StepContext& c, const Workspace& workspace) {
   const Particles& particles = c.particles;
   const ForceConstants k = forceConstants(c, workspace);
@@ -1276,6 +1382,10 @@ void TimeStepWCSPH::advance(StepContext& c, Real dt) {
   start = Clock::now();
   wcsph::addBoundaryAcceleration(c, mWorkspace, dt);
   c.timings.boundary += millisecondsSince(start);
+
+  start = Clock::now();
+  wcsph::addVelocityFilter(c, mWorkspace);
+  c.timings.forces += millisecondsSince(start);
 
   std::copy(c.obstacleForce.begin(), c.obstacleForce.end(), c.reportedObstacleForce.begin());
   start = Clock::now();

@@ -68,6 +68,10 @@ struct Workspace {
   std::vector<std::uint32_t> mirrorBegin, mirrorCount, mirrorNeighbors;
   /// Per map: whether its passes sum around i's pre-image (an isometry over a half-space).
   std::vector<std::uint8_t> mirrorPreImage;
+  /// The velocity filter's L(v) and L(L(v)) (addVelocityFilter), m/s.
+  std::vector<Vec3r> velocityLaplacian, velocityBilaplacian;
+  /// Its fluid pairs' kernel values, per neighbour-list entry, shared by its two passes.
+  std::vector<Real> filterWeights;
   const std::uint32_t* mirrorList(std::size_t m) const { return mirrorNeighbors.data() + mirrorBegin[m]; }
 };
 } // namespace wcsph
@@ -132,6 +136,21 @@ void computePressure(StepContext& context, Workspace& workspace);
 /// Over MPI ranks (context.partition): the ghosts' densities and pressures from their
 /// owners, into the particles and workspace.particles (computePressure calls it).
 void refreshGhostPressure(StepContext& context, Workspace& workspace);
+/// The bi-Laplacian velocity filter (SolverSettings::velocityFilter), added to the owned
+/// particles' accelerations: a_i -= beta c_0 / h L(L(v))_i with
+/// L(f)_i = sum_j m / rho_0 W_ij (f_j - f_i) over the fluid neighbours and the mirror
+/// images (free slip). A fourth-order operator: it damps the particle-scale velocity
+/// (a zigzag between neighbouring columns, which loses nothing to L at rate ~1) and
+/// leaves a harmonic field alone in the bulk (an isotropic kernel's L and L^2 vanish
+/// on it to every order), so waves keep their energy. Pairs are symmetric: momentum is
+/// kept up to the walls. Reads positions and velocities from workspace.particles and
+/// the mirror pairs of this step. Applied on every K-th step (context.step) with K times the
+/// strength, K = velocityFilterInterval(): the filter is slow next to a step (it takes
+/// about beta cfl of a zigzag's velocity per step), so its cost falls K-fold for the same
+/// damping.
+void addVelocityFilter(StepContext& context, Workspace& workspace);
+/// K of addVelocityFilter: the most steps (1-8) with K beta cfl <= 0.2.
+int velocityFilterInterval(const SolverSettings& solver);
 /// Fluid-fluid accelerations of the owned particles: SEED (5), (6), artificial viscosity, gravity.
 void computeFluidAcceleration(StepContext& context, const Workspace& workspace);
 /// Boundary layer: mirror pressure / viscosity and SEED (11) repulsion; fills

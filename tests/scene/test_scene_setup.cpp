@@ -87,6 +87,24 @@ TEST(SceneSetup, WarnsWhenATankIsNarrowerThanTheSupportLessASpacing) {
   EXPECT_EQ(log.find("across x"), std::string::npos);  // 0.05 m: wide enough
 }
 
+// WCSPH's continuity density beyond 2.2 spacings of support: still water is unstable
+// without the velocity filter (tests/solver/test_standing_wave.cpp, StillWaterForWaves).
+TEST(SceneSetup, WarnsWhenContinuityDensityAtAWideSupportHasNoVelocityFilter) {
+  Scene scene = column(0.1, "wcsph");
+  scene.solver.density = "continuity";
+  EXPECT_EQ(setUpLog(scene).find("warning"), std::string::npos) << setUpLog(scene);  // 2.15 spacings
+  scene.solver.supportFactor = 3;
+  const std::string log = setUpLog(scene);
+  EXPECT_NE(log.find("warning: continuity density at solver.support_factor 3 with no solver.velocity_filter"),
+            std::string::npos)
+      << log;
+  scene.solver.velocityFilter = 0.12;
+  EXPECT_EQ(setUpLog(scene).find("warning"), std::string::npos) << setUpLog(scene);
+  scene.solver.velocityFilter = 0;
+  scene.solver.density = "summation";
+  EXPECT_EQ(setUpLog(scene).find("warning"), std::string::npos) << setUpLog(scene);
+}
+
 TEST(SceneSetup, WarnsWhenACflFactorIsAboveItsSolversCap) {
   Scene scene = column(0.1, "dfsph");
   scene.solver.cfl = 1.0;
