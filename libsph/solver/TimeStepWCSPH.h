@@ -139,15 +139,18 @@ void refreshGhostPressure(StepContext& context, Workspace& workspace);
 /// The bi-Laplacian velocity filter (SolverSettings::velocityFilter), added to the owned
 /// particles' accelerations: a_i -= beta c_0 / h L(L(v))_i with
 /// L(f)_i = sum_j m / rho_0 W_ij (f_j - f_i) over the fluid neighbours and the mirror
-/// images (free slip). A fourth-order operator: it damps the particle-scale velocity
-/// (a zigzag between neighbouring columns, which loses nothing to L at rate ~1) and
-/// leaves a harmonic field alone in the bulk (an isotropic kernel's L and L^2 vanish
-/// on it to every order), so waves keep their energy. Pairs are symmetric: momentum is
-/// kept up to the walls. Reads positions and velocities from workspace.particles and
-/// the mirror pairs of this step. Applied on every K-th step (context.step) with K times the
+/// images (free slip). A fourth-order operator: it damps the particle-scale velocity (a
+/// zigzag between neighbouring columns, which the kernel average hardly sees, so that
+/// L(v) is about -v there) and leaves a harmonic field alone in the bulk (an isotropic
+/// kernel's L and L^2 vanish on it to every order), so waves keep their energy. Pairs
+/// are symmetric: momentum is kept up to the walls. What the mirror images add is not
+/// reported as a force on the solids (context.obstacleForce): a moving wall's images
+/// carry its velocity, so the filter acts between a paddle and the water unmeasured by
+/// its force probe. Reads positions and velocities from workspace.particles and the
+/// mirror pairs of this step. Applied on every K-th step (context.step) with K times the
 /// strength, K = velocityFilterInterval(): the filter is slow next to a step (it takes
-/// about beta cfl of a zigzag's velocity per step), so its cost falls K-fold for the same
-/// damping.
+/// about beta cfl of a zigzag's velocity per step), so its cost falls K-fold for the
+/// same damping.
 void addVelocityFilter(StepContext& context, Workspace& workspace);
 /// K of addVelocityFilter: the most steps (1-8) with K beta cfl <= 0.2.
 int velocityFilterInterval(const SolverSettings& solver);
