@@ -333,7 +333,7 @@ void setUpSimulation(const Scene& scene, Simulation& simulation, std::ostream* l
   // particle-scale motion grows from round-off and drains waves (docs/solvers.md, "Still
   // water set for waves"); the velocity filter holds it down.
   if (log && scene.solver.type == "wcsph" && scene.solver.density == "continuity" && scene.solver.velocityFilter <= 0) {
-    const double factor = scene.solver.supportFactor > 0 ? scene.solver.supportFactor : kWcsphSupportFactor;
+    const double factor = double(simulation.constants().supportRadius) / scene.fluid.spacing;
     if (factor > kWcsphStableContinuitySupport)
       *log << "warning: continuity density at solver.support_factor " << factor
            << " with no solver.velocity_filter: resting water there is unstable (a particle-scale motion grows from "
